@@ -1,0 +1,1 @@
+"""Distillation of the model-based controller into a neural policy and its preservative fine-tuning."""

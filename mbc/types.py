@@ -1,0 +1,99 @@
+"""The data that crosses the controller/simulator boundary.
+
+`RobotState`, `Command` and `JointCommand` are the contracts of DESIGN.md: every controller maps a
+`RobotState` and a `Command` to a `JointCommand`, every simulator produces `RobotState`s.
+Joint arrays follow `robots.digit.constants.JOINT_NAMES`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mbc.errors import ConfigError
+from robots.digit.constants import NUM_JOINTS
+
+
+def _vector(name: str, value, size: int) -> np.ndarray:
+    array = np.asarray(value, dtype=float)
+    if array.shape != (size,):
+        raise ConfigError(f"{name} must have shape ({size},), got {array.shape}")
+    if not np.all(np.isfinite(array)):
+        raise ConfigError(f"{name} must be finite, got {array}")
+    return array
+
+
+@dataclass
+class RobotState:
+    """Measured state of the robot at one control tick.
+
+    Velocities are in the world frame; joint arrays in `JOINT_NAMES` order.
+    """
+
+    time: float
+    """Simulation time [s]."""
+    base_pos: np.ndarray
+    """(3,) pelvis origin in the world [m]."""
+    base_quat: np.ndarray
+    """(4,) pelvis orientation, w x y z."""
+    base_linvel: np.ndarray
+    """(3,) pelvis origin linear velocity, world frame [m/s]."""
+    base_angvel: np.ndarray
+    """(3,) pelvis angular velocity, world frame [rad/s]."""
+    q: np.ndarray
+    """(12,) leg joint positions [rad]."""
+    qd: np.ndarray
+    """(12,) leg joint velocities [rad/s]."""
+    contact: np.ndarray
+    """(2,) bool, left/right foot in contact."""
+    foot_force: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    """(2,) left/right foot normal contact force [N]."""
+    tau: np.ndarray = field(default_factory=lambda: np.zeros(NUM_JOINTS))
+    """(12,) joint torque applied over the last control period [N m] (mean over sim steps)."""
+
+    def copy(self) -> RobotState:
+        """A deep copy (arrays are not shared)."""
+        return RobotState(**{k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()})
+
+
+@dataclass(frozen=True)
+class Command:
+    """Desired walking velocity: forward and lateral [m/s] in the heading frame, yaw rate [rad/s]."""
+
+    vx: float = 0.0
+    vy: float = 0.0
+    yaw_rate: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("vx", "vy", "yaw_rate"):
+            value = getattr(self, name)
+            if not np.isfinite(value):
+                raise ConfigError(f"Command.{name} must be finite, got {value}")
+
+    def as_array(self) -> np.ndarray:
+        """(3,) [vx, vy, yaw_rate]."""
+        return np.array([self.vx, self.vy, self.yaw_rate])
+
+
+@dataclass
+class JointCommand:
+    """Per-joint PD targets and feed-forward torque.
+
+    The simulator applies tau = Kp (q_des - q) + Kd (qd_des - qd) + tau_ff, clipped to the torque
+    limits, at the simulation rate. Arrays are validated: shape (12,) and finite.
+    """
+
+    q_des: np.ndarray
+    qd_des: np.ndarray
+    tau_ff: np.ndarray = field(default_factory=lambda: np.zeros(NUM_JOINTS))
+
+    def __post_init__(self) -> None:
+        self.q_des = _vector("JointCommand.q_des", self.q_des, NUM_JOINTS)
+        self.qd_des = _vector("JointCommand.qd_des", self.qd_des, NUM_JOINTS)
+        self.tau_ff = _vector("JointCommand.tau_ff", self.tau_ff, NUM_JOINTS)
+
+    @classmethod
+    def hold(cls, q: np.ndarray) -> JointCommand:
+        """Hold joint positions `q` with zero velocity and no feed-forward."""
+        return cls(q_des=np.array(q, dtype=float), qd_des=np.zeros(NUM_JOINTS))
