@@ -1,0 +1,131 @@
+r"""The angular-momentum linear inverted pendulum (ALIP), exact and vectorized.
+
+Per horizontal axis, with CoM position x relative to the stance contact point, angular momentum
+L about the contact point, constant CoM height z and ankle torque u:
+
+    x' = L / (m z),        L' = m g x + u.
+
+With omega = sqrt(g / z) the flow over t is, for constant u and x~ = x + u / (m g),
+
+    [x~(t)]   [ cosh(wt)          sinh(wt) / (m z w) ] [x~(0)]
+    [L (t)] = [ m z w sinh(wt)    cosh(wt)           ] [L (0)].
+
+Axis convention: L is the pendulum momentum m z x' (for z' = 0). Sagittal: L = L_y about the
+contact; lateral: L = -L_x (so that L = m z y'). The orbital energy
+E = (L / (m z))^2 / 2 - omega^2 x^2 / 2 is conserved for u = 0.
+
+At touchdown the contact moves by the step u_step; with z' = 0 the angular momentum about the new
+contact equals that about the old one, so the step-to-step map between pre-impact states is
+s+ = A(T) (s - [u_step, 0]) = A(T) s + B(T) u_step.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mbc.errors import ConfigError
+
+
+def _positive(name: str, value: float) -> float:
+    value = float(value)
+    if not (np.isfinite(value) and value > 0):
+        raise ConfigError(f"{name} must be positive and finite, got {value}")
+    return value
+
+
+def _finite(name: str, value) -> np.ndarray:
+    array = np.asarray(value, dtype=float)
+    if not np.all(np.isfinite(array)):
+        raise ConfigError(f"{name} must be finite, got {value}")
+    return array
+
+
+def _durations(name: str, value) -> np.ndarray:
+    array = _finite(name, value)
+    if np.any(array <= 0):
+        raise ConfigError(f"{name} must be positive (a step duration), got {value}")
+    return array
+
+
+class AlipModel:
+    """ALIP of mass `mass` [kg] at constant CoM height `com_height` [m] above the contact."""
+
+    def __init__(self, mass: float, com_height: float, gravity: float = 9.81) -> None:
+        self.mass = _positive("mass", mass)
+        self.com_height = _positive("com_height", com_height)
+        self.gravity = _positive("gravity", gravity)
+        self.omega = float(np.sqrt(self.gravity / self.com_height))
+        """Natural frequency sqrt(g / z) [1/s]."""
+
+    def __repr__(self) -> str:
+        return f"AlipModel(mass={self.mass}, com_height={self.com_height}, gravity={self.gravity})"
+
+    @property
+    def mz(self) -> float:
+        return self.mass * self.com_height
+
+    def propagate(self, x, L, t, u_ankle=0.0) -> tuple[np.ndarray, np.ndarray]:
+        """State (x [m], L [kg m^2/s]) after time t [s] >= 0 under constant ankle torque [N m].
+
+        All arguments broadcast against each other.
+        """
+        x, L, u = _finite("x", x), _finite("L", L), _finite("u_ankle", u_ankle)
+        t = _finite("t", t)
+        if np.any(t < 0):
+            raise ConfigError(f"t must be >= 0, got {t}")
+        wt = self.omega * t
+        ch, sh = np.cosh(wt), np.sinh(wt)
+        shift = u / (self.mass * self.gravity)
+        x_shifted = x + shift
+        x_t = ch * x_shifted + sh * L / (self.mz * self.omega) - shift
+        L_t = self.mz * self.omega * sh * x_shifted + ch * L
+        return x_t, L_t
+
+    def transition_matrix(self, t: float) -> np.ndarray:
+        """(2, 2) A(t) with [x, L](t) = A(t) [x, L](0) for zero ankle torque."""
+        wt = self.omega * float(_durations("t", t))
+        ch, sh = np.cosh(wt), np.sinh(wt)
+        return np.array([[ch, sh / (self.mz * self.omega)], [self.mz * self.omega * sh, ch]])
+
+    def step_to_step(self, T: float) -> tuple[np.ndarray, np.ndarray]:
+        """(A, B) of the pre-impact map s_next = A s + B u_step for a step of duration T [s].
+
+        s = [x, L] just before touchdown (x relative to the stance contact), u_step = new contact
+        minus old contact along the axis [m].
+        """
+        A = self.transition_matrix(T)
+        return A, -A[:, 0]
+
+    def foot_placement(self, L_end, v_des, T) -> np.ndarray:
+        """Next foot position relative to the CoM at touchdown (one-step-ahead law) [m].
+
+        Chosen so that one step of duration T later the momentum is L = m z v_des:
+            p = (L_end cosh(wT) / (m z) - v_des) / (w sinh(wT)).
+        """
+        L_end, v_des, T = _finite("L_end", L_end), _finite("v_des", v_des), _durations("T", T)
+        wt = self.omega * T
+        return (L_end * np.cosh(wt) / self.mz - v_des) / (self.omega * np.sinh(wt))
+
+    def end_velocity_for_mean(self, v_mean, T) -> np.ndarray:
+        """Velocity at the step's end of the periodic gait whose mean velocity is v_mean [m/s].
+
+        In a periodic ALIP gait the CoM is slowest mid-step: v_end = v_mean (wT/2) / tanh(wT/2).
+        Feed this to `foot_placement` to track a mean walking velocity.
+        """
+        half = self.omega * _durations("T", T) / 2
+        return _finite("v_mean", v_mean) * half / np.tanh(half)
+
+    def lateral_end_momentum(self, stance_sign, step_width, T, v_mean=0.0) -> np.ndarray:
+        """L at the end of a stance of the periodic two-step lateral gait [kg m^2/s].
+
+        stance_sign: +1 for left stance (the CoM passes right of the left foot, heading right),
+        -1 for right stance; step_width: lateral distance between the feet [m]. The gait
+        alternates +-(m z W w / 2) tanh(wT/2) on top of the mean-velocity momentum.
+        """
+        width, T = _finite("step_width", step_width), _durations("T", T)
+        swing = 0.5 * self.mz * width * self.omega * np.tanh(self.omega * T / 2)
+        return -np.asarray(stance_sign) * swing + self.mz * self.end_velocity_for_mean(v_mean, T)
+
+    def orbital_energy(self, x, L) -> np.ndarray:
+        """(L / (m z))^2 / 2 - w^2 x^2 / 2, conserved along the flow without ankle torque."""
+        return 0.5 * (np.asarray(L) / self.mz) ** 2 - 0.5 * self.omega**2 * np.asarray(x) ** 2

@@ -1,0 +1,68 @@
+"""Pinocchio model and data kept in sync with a `RobotState`: frames, CoM, momentum, dynamics terms."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from mbc.robot import JointMap, load_pinocchio, pinocchio_configuration, pinocchio_velocity
+from mbc.types import RobotState
+from robots.digit import constants as c
+
+
+class PinRobot:
+    """The Digit model in pinocchio; call `update(state)` once per tick, then query."""
+
+    def __init__(self, model: pin.Model | None = None) -> None:
+        self.model = model if model is not None else load_pinocchio()
+        self.data = self.model.createData()
+        self.joint_map = JointMap.for_pinocchio(self.model)
+        self.mass = float(pin.computeTotalMass(self.model))
+        self.sole_ids = tuple(self.model.getFrameId(name) for name in c.SOLE_FRAMES)
+        self.q = pin.neutral(self.model)
+        self.v = np.zeros(self.model.nv)
+
+    def update(self, state: RobotState) -> None:
+        """Forward kinematics, CoM, centroidal momentum and frame placements for `state`."""
+        self.q = pinocchio_configuration(state.base_pos, state.base_quat, state.q, self.joint_map)
+        self.v = pinocchio_velocity(state.base_quat, state.base_linvel, state.base_angvel, state.qd, self.joint_map)
+        self.set_configuration(self.q, self.v)
+
+    def set_configuration(self, q: np.ndarray, v: np.ndarray) -> None:
+        """As `update`, from pinocchio's own q, v."""
+        self.q, self.v = q, v
+        pin.forwardKinematics(self.model, self.data, q, v)
+        pin.updateFramePlacements(self.model, self.data)
+        pin.centerOfMass(self.model, self.data, q, v, False)
+        pin.computeCentroidalMomentum(self.model, self.data)
+
+    @property
+    def com(self) -> np.ndarray:
+        """(3,) whole-body CoM, world [m]."""
+        return self.data.com[0].copy()
+
+    @property
+    def com_velocity(self) -> np.ndarray:
+        """(3,) whole-body CoM velocity, world [m/s]."""
+        return self.data.vcom[0].copy()
+
+    def sole_position(self, side: int) -> np.ndarray:
+        """(3,) sole frame origin of foot `side` (0 left, 1 right), world [m]."""
+        return self.data.oMf[self.sole_ids[side]].translation.copy()
+
+    def sole_rotation(self, side: int) -> np.ndarray:
+        return self.data.oMf[self.sole_ids[side]].rotation.copy()
+
+    def sole_velocity(self, side: int) -> np.ndarray:
+        """(6,) sole frame linear and angular velocity, world-aligned axes."""
+        return pin.getFrameVelocity(self.model, self.data, self.sole_ids[side], pin.LOCAL_WORLD_ALIGNED).vector.copy()
+
+    def angular_momentum_about(self, point_world: np.ndarray) -> np.ndarray:
+        """(3,) angular momentum about a fixed world point: L_com + (c - p) x m v_com [kg m^2/s]."""
+        hg = self.data.hg
+        return hg.angular + np.cross(self.data.com[0] - point_world, hg.linear)
+
+    @property
+    def centroidal_angular_momentum(self) -> np.ndarray:
+        """(3,) angular momentum about the CoM, world-aligned axes [kg m^2/s]."""
+        return self.data.hg.angular.copy()

@@ -1,0 +1,99 @@
+"""Gait phase and step timing: a fixed nominal period, with touchdown detected from contact.
+
+A step starts when the swing foot touches down. Within a step the phase s = (t - t_start) / T
+runs from 0 to 1. Touchdown is accepted once s >= `early_touchdown_phase` (early touchdown ends
+the step where it happens); if the swing foot has not touched down by s = 1 the step goes on
+(late touchdown: the swing trajectory keeps lowering the foot) until contact or
+`late_touchdown_phase`, when the step is ended regardless. The clock follows the observed robot:
+it only needs the time and the contact flags, so it can be started mid-gait.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mbc.errors import ConfigError
+
+LEFT, RIGHT = 0, 1
+
+
+@dataclass(frozen=True)
+class TimingConfig:
+    """Step timing parameters."""
+
+    step_duration_s: float = 0.35
+    """Nominal step duration T [s] (Digit controllers use 0.30-0.40 s)."""
+    early_touchdown_phase: float = 0.6
+    """Earliest phase at which swing-foot contact ends the step."""
+    late_touchdown_phase: float = 1.4
+    """Phase at which the step ends even without swing-foot contact."""
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.step_duration_s) and self.step_duration_s > 0):
+            raise ConfigError(f"step_duration_s must be positive, got {self.step_duration_s}")
+        if not 0 < self.early_touchdown_phase <= 1 <= self.late_touchdown_phase:
+            raise ConfigError("need 0 < early_touchdown_phase <= 1 <= late_touchdown_phase, got "
+                              f"{self.early_touchdown_phase}, {self.late_touchdown_phase}")
+
+
+class GaitClock:
+    """Stance side and phase of the current step, advanced by time and contact."""
+
+    def __init__(self, config: TimingConfig | None = None) -> None:
+        self.config = config or TimingConfig()
+        self.stance = LEFT
+        self.step_start_s = 0.0
+        self.step_duration_s = self.config.step_duration_s
+        self.time_s = 0.0
+        self.touchdowns = 0
+        """Number of stance switches since `reset`."""
+
+    def reset(self, time_s: float, stance: int, phase: float = 0.0) -> None:
+        """Start (or resume) the gait with `stance` foot down at `phase` of its step."""
+        if stance not in (LEFT, RIGHT):
+            raise ConfigError(f"stance must be LEFT (0) or RIGHT (1), got {stance}")
+        self.stance = stance
+        self.time_s = time_s
+        self.step_duration_s = self.config.step_duration_s
+        self.step_start_s = time_s - phase * self.step_duration_s
+        self.touchdowns = 0
+
+    @property
+    def swing(self) -> int:
+        return 1 - self.stance
+
+    @property
+    def phase(self) -> float:
+        """Phase of the current step, 0 at its start, 1 at its nominal end (may exceed 1 when late)."""
+        return (self.time_s - self.step_start_s) / self.step_duration_s
+
+    @property
+    def time_to_touchdown_s(self) -> float:
+        """Planned time left in the current step (0 once late) [s]."""
+        return max(self.step_start_s + self.step_duration_s - self.time_s, 0.0)
+
+    def update(self, time_s: float, contact: np.ndarray) -> bool:
+        """Advance to `time_s` with contact flags (left, right); True when a new step starts."""
+        self.time_s = time_s
+        s = self.phase
+        touched = bool(contact[self.swing]) and s >= self.config.early_touchdown_phase
+        if touched or s >= self.config.late_touchdown_phase:
+            self.stance = self.swing
+            self.step_start_s = time_s
+            self.step_duration_s = self.config.step_duration_s
+            self.touchdowns += 1
+            return True
+        return False
+
+    def set_step_duration(self, duration_s: float) -> None:
+        """Change the current step's planned duration (step-timing adaptation, e.g. by the MPC)."""
+        if not (np.isfinite(duration_s) and duration_s > 0):
+            raise ConfigError(f"step duration must be positive, got {duration_s}")
+        self.step_duration_s = duration_s
+
+    def observation(self) -> np.ndarray:
+        """(4,) policy features: sin/cos of the two-step gait phase, stance one-hot (left, right)."""
+        cycle = 2 * np.pi * (min(self.phase, 1.0) + self.stance) / 2
+        return np.array([np.sin(cycle), np.cos(cycle), float(self.stance == LEFT), float(self.stance == RIGHT)])
