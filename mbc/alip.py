@@ -21,6 +21,8 @@ s+ = A(T) (s - [u_step, 0]) = A(T) s + B(T) u_step.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from mbc.errors import ConfigError
@@ -33,18 +35,23 @@ def _positive(name: str, value: float) -> float:
     return value
 
 
-def _finite(name: str, value) -> np.ndarray:
+def _finite(name: str, value) -> np.ndarray | float:
+    """`value` as a float (scalars, the fast path of the control loop) or a float array, if finite."""
+    if isinstance(value, float | int):
+        if not math.isfinite(value):
+            raise ConfigError(f"{name} must be finite, got {value}")
+        return float(value)
     array = np.asarray(value, dtype=float)
-    if not np.all(np.isfinite(array)):
+    if not np.isfinite(array).all():
         raise ConfigError(f"{name} must be finite, got {value}")
     return array
 
 
-def _durations(name: str, value) -> np.ndarray:
-    array = _finite(name, value)
-    if np.any(array <= 0):
+def _durations(name: str, value) -> np.ndarray | float:
+    checked = _finite(name, value)
+    if np.any(np.asarray(checked) <= 0):
         raise ConfigError(f"{name} must be positive (a step duration), got {value}")
-    return array
+    return checked
 
 
 class AlipModel:
@@ -71,7 +78,7 @@ class AlipModel:
         """
         x, L, u = _finite("x", x), _finite("L", L), _finite("u_ankle", u_ankle)
         t = _finite("t", t)
-        if np.any(t < 0):
+        if np.any(np.asarray(t) < 0):
             raise ConfigError(f"t must be >= 0, got {t}")
         wt = self.omega * t
         ch, sh = np.cosh(wt), np.sinh(wt)
