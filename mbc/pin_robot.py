@@ -46,6 +46,11 @@ class PinRobot:
         """(3,) whole-body CoM velocity, world [m/s]."""
         return self.data.vcom[0].copy()
 
+    def com_acceleration(self, acceleration: np.ndarray) -> np.ndarray:
+        """(3,) CoM acceleration for generalized acceleration `acceleration` at the current (q, v) [m/s^2]."""
+        pin.centerOfMass(self.model, self.data, self.q, self.v, acceleration, False)
+        return self.data.acom[0].copy()
+
     def sole_position(self, side: int) -> np.ndarray:
         """(3,) sole frame origin of foot `side` (0 left, 1 right), world [m]."""
         return self.data.oMf[self.sole_ids[side]].translation.copy()

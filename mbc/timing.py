@@ -70,6 +70,11 @@ class GaitClock:
         return (self.time_s - self.step_start_s) / self.step_duration_s
 
     @property
+    def time_in_step_s(self) -> float:
+        """Time since the current step began [s]."""
+        return self.time_s - self.step_start_s
+
+    @property
     def time_to_touchdown_s(self) -> float:
         """Planned time left in the current step (0 once late) [s]."""
         return max(self.step_start_s + self.step_duration_s - self.time_s, 0.0)

@@ -1,0 +1,309 @@
+"""`AlipController`: ALIP foot placement + whole-body IK + passivity-based QP, one `act` per tick.
+
+One tick (200 Hz):
+1. gait clock: stance side and phase from time and contact (touchdown-triggered);
+2. ALIP state (x, L) about the stance sole, heading frame; predict (x, L) at touchdown;
+3. next foot placement: one-step-ahead law (or the ALIP MPC), clipped to kinematic bounds;
+4. swing-foot reference one tick ahead (time-to-go from the measured foot, clearance, soft landing);
+5. whole-body IK (placo) -> q_des, qd_des;
+6. passivity-based inverse-dynamics QP (proxsuite, pinocchio terms) -> joint torque tau;
+7. action-space conversion: the (q_des, qd_des) whose PD gives tau at this tick, so the controller
+   acts in the same space as a learned policy (`output="pd"`), or tau itself as tau_ff (`"torque"`).
+
+Everything that persists between ticks follows the observed robot (the gait clock needs only time
+and contacts), so the controller can label states produced by other policies. Failures (QP not
+solved, IK diverged, non-finite state) never raise: the tick falls back to a damped hold of the
+last good targets and is counted in the diagnostics.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import warnings
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from mbc.alip import AlipModel
+from mbc.alip_mpc import AlipMpc, AlipMpcConfig
+from mbc.alip_state import AlipState, alip_state
+from mbc.assumptions import AssumptionReport, saturation
+from mbc.errors import ConfigError
+from mbc.ik import IkConfig, IkTargets, WholeBodyIK
+from mbc.passivity import PassivityConfig, PassivityQp
+from mbc.pin_robot import PinRobot
+from mbc.swing import SwingConfig, min_jerk, swing_reference
+from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig
+from mbc.types import Command, JointCommand, RobotState
+from robots.digit import constants as c
+
+
+@dataclass(frozen=True)
+class CommandLimits:
+    """Command range the controller accepts; beyond it commands are clipped and reported."""
+
+    vx_mps: tuple[float, float] = (-0.5, 1.0)
+    vy_mps: tuple[float, float] = (-0.3, 0.3)
+    yaw_rate_radps: tuple[float, float] = (-0.8, 0.8)
+
+    def clip(self, command: Command) -> tuple[np.ndarray, bool]:
+        raw = command.as_array()
+        bounds = np.array([self.vx_mps, self.vy_mps, self.yaw_rate_radps])
+        clipped = np.clip(raw, bounds[:, 0], bounds[:, 1])
+        return clipped, bool(np.any(clipped != raw))
+
+
+@dataclass(frozen=True)
+class AlipControllerConfig:
+    """Parameters of the ALIP walking controller."""
+
+    com_height_m: float = 0.95
+    """ALIP z_bar: desired CoM height above the stance sole [m]."""
+    step_width_m: float = 0.26
+    """Lateral distance between the feet in the periodic gait [m]."""
+    max_step_length_m: float = 0.5
+    """Bound on the sagittal step (new foot minus stance foot) [m]."""
+    min_step_width_m: float = 0.14
+    max_step_width_m: float = 0.45
+    max_turn_per_step_rad: float = 0.3
+    foot_placement: Literal["one_step", "mpc"] = "one_step"
+    """One-step-ahead law (default) or the multi-step ALIP MPC with step timing."""
+    output: Literal["pd", "torque"] = "pd"
+    """Action space: PD targets reproducing the QP torque (the policy's space) or raw torque as tau_ff."""
+    kp: np.ndarray = field(default_factory=lambda: c.KP_DEFAULT.copy())
+    """(12,) joint stiffness of the simulator, for the action-space conversion."""
+    kd: np.ndarray = field(default_factory=lambda: c.KD_DEFAULT.copy())
+    limits: CommandLimits = field(default_factory=CommandLimits)
+    timing: TimingConfig = field(default_factory=TimingConfig)
+    swing: SwingConfig = field(default_factory=SwingConfig)
+    ik: IkConfig = field(default_factory=IkConfig)
+    qp: PassivityConfig = field(default_factory=PassivityConfig)
+    mpc: AlipMpcConfig = field(default_factory=AlipMpcConfig)
+
+    def __post_init__(self) -> None:
+        if not 0.5 < self.com_height_m < 1.2:
+            raise ConfigError(f"com_height_m must be in (0.5, 1.2), got {self.com_height_m}")
+        if not 0 < self.min_step_width_m <= self.step_width_m <= self.max_step_width_m:
+            raise ConfigError("need 0 < min_step_width_m <= step_width_m <= max_step_width_m")
+        if self.foot_placement not in ("one_step", "mpc"):
+            raise ConfigError(f"foot_placement must be 'one_step' or 'mpc', got {self.foot_placement!r}")
+        if self.output not in ("pd", "torque"):
+            raise ConfigError(f"output must be 'pd' or 'torque', got {self.output!r}")
+        if np.any(np.asarray(self.kp) <= 0) and self.output == "pd":
+            raise ConfigError("the PD action-space conversion needs positive kp")
+
+
+@dataclass(frozen=True)
+class ControllerDiagnostics:
+    """What the controller saw and did in one tick."""
+
+    assumptions: AssumptionReport
+    stance: int
+    phase: float
+    touchdown: bool
+    alip: AlipState | None
+    foot_target_world: np.ndarray
+    command_used: np.ndarray
+    """(3,) the command after clipping."""
+    command_clipped: bool
+    ik_converged: bool
+    qp_iterations: int
+    fallback: bool
+    fallback_count: int
+    tau: np.ndarray
+    """(12,) the controller's joint torque at this tick [N m]."""
+    tick_time_s: dict[str, float]
+    """Wall time of the parts: 'alip', 'ik', 'qp', 'total' [s]."""
+
+
+def _yaw_of(rotation: np.ndarray) -> float:
+    return float(np.arctan2(rotation[1, 0], rotation[0, 0]))
+
+
+def _wrap(angle: float) -> float:
+    return float((angle + np.pi) % (2 * np.pi) - np.pi)
+
+
+def _quat_yaw(quat_wxyz: np.ndarray) -> float:
+    w, x, y, z = quat_wxyz
+    return float(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
+
+
+class AlipController:
+    """ALIP walking controller for Digit; implements the `Controller` protocol at 200 Hz."""
+
+    dt = 0.005
+
+    def __init__(self, config: AlipControllerConfig | None = None) -> None:
+        self.config = cfg = config or AlipControllerConfig()
+        self.robot = PinRobot()
+        self.alip = AlipModel(self.robot.mass, cfg.com_height_m)
+        self.clock = GaitClock(cfg.timing)
+        self.ik = WholeBodyIK(cfg.ik, dt=self.dt)
+        self.qp = PassivityQp(cfg.qp)
+        self.mpc = AlipMpc(self.alip, dataclasses.replace(
+            cfg.mpc, step_duration_s=cfg.timing.step_duration_s, max_step_length_m=cfg.max_step_length_m,
+            min_step_width_m=cfg.min_step_width_m, max_step_width_m=cfg.max_step_width_m)) \
+            if cfg.foot_placement == "mpc" else None
+        self._kp, self._kd = np.asarray(cfg.kp, float), np.asarray(cfg.kd, float)
+        self._last_q_des = c.Q_STAND.copy()
+        self.fallback_count = 0
+        self.last_diagnostics: ControllerDiagnostics | None = None
+        self._started = False
+
+    @classmethod
+    def for_digit(cls, **overrides) -> AlipController:
+        """The controller with Digit defaults; keyword overrides name `AlipControllerConfig` fields."""
+        valid = [f.name for f in dataclasses.fields(AlipControllerConfig)]
+        unknown = sorted(set(overrides) - set(valid))
+        if unknown:
+            raise ConfigError(f"unknown controller option(s) {unknown}; valid: {valid}")
+        return cls(AlipControllerConfig(**overrides))
+
+    # --- Controller protocol ------------------------------------------------------------------------
+
+    def reset(self, state: RobotState, stance: int | None = None, phase: float | None = None) -> None:
+        """Start from `state`, standing or mid-gait.
+
+        The stance foot is the only foot in contact, or, with both (or neither) down, the left one;
+        the phase is 0 in double support and 0.5 in single support unless given.
+        """
+        contact = np.asarray(state.contact, dtype=bool)
+        if stance is None:
+            stance = RIGHT if (contact[RIGHT] and not contact[LEFT]) else LEFT
+        if phase is None:
+            phase = 0.5 if contact.sum() == 1 else 0.0
+        self.clock.reset(state.time, stance, phase)
+        self._last_q_des = np.asarray(state.q, dtype=float).copy()
+        self.fallback_count = 0
+        self._started = True
+
+    def act(self, state: RobotState, command: Command) -> JointCommand:
+        """The joint command for this tick (never raises for solver failures or a bad state)."""
+        if not isinstance(command, Command):
+            raise ConfigError(f"act expects a Command, got {type(command).__name__}")
+        if not self._started:
+            self.reset(state)
+        start = time.perf_counter()
+        command_used, clipped = self.config.limits.clip(command)
+        if not self._finite_state(state):
+            return self._fallback(state, command_used, clipped, start, reason="non-finite state")
+        try:
+            return self._tick(state, command_used, clipped, start)
+        except Exception as exc:  # solver exceptions (placo QPError, linear algebra, ...) -> safe command
+            return self._fallback(state, command_used, clipped, start, reason=f"{type(exc).__name__}: {exc}")
+
+    # --- the tick -------------------------------------------------------------------------------------
+
+    def _tick(self, state: RobotState, command: np.ndarray, clipped: bool, start: float) -> JointCommand:
+        cfg, robot, clock = self.config, self.robot, self.clock
+        robot.update(state)
+        touchdown = clock.update(state.time, state.contact)
+        stance, swing = clock.stance, clock.swing
+        stance_sole = robot.sole_position(stance)
+        heading = _quat_yaw(state.base_quat)
+        alip = alip_state(robot, stance_sole, heading)
+        T = cfg.timing.step_duration_s
+        foot_step, time_left = self._foot_step(alip, command, stance)
+        if self.mpc is not None:
+            clock.set_step_duration(clock.time_in_step_s + time_left)
+        rotation = np.array([[np.cos(heading), -np.sin(heading)], [np.sin(heading), np.cos(heading)]])
+        target = np.r_[stance_sole[:2] + rotation @ foot_step, stance_sole[2]]
+        swing_sole = robot.sole_position(swing)
+        phase = clock.phase
+        phase_step = self.dt / clock.step_duration_s
+        swing_position, swing_velocity = swing_reference(swing_sole, target, phase, phase_step,
+                                                         clock.step_duration_s, cfg.swing)
+        stance_yaw = _yaw_of(robot.sole_rotation(stance))
+        swing_yaw_now = _yaw_of(robot.sole_rotation(swing))
+        turn = np.clip(command[2] * T, -cfg.max_turn_per_step_rad, cfg.max_turn_per_step_rad)
+        b_now, _ = min_jerk(phase)
+        b_next, _ = min_jerk(phase + phase_step)
+        fraction = 1.0 if b_now >= 1.0 else (b_next - b_now) / (1.0 - b_now)
+        swing_yaw = swing_yaw_now + fraction * _wrap(stance_yaw + turn - swing_yaw_now)
+        targets = IkTargets(
+            stance=stance, swing_position=swing_position, swing_velocity=swing_velocity, swing_yaw=swing_yaw,
+            pelvis_yaw=stance_yaw + 0.5 * _wrap(swing_yaw - stance_yaw), com_height=stance_sole[2] + cfg.com_height_m,
+            pelvis_xy=state.base_pos[:2], pelvis_xy_velocity=state.base_linvel[:2])
+        t_alip = time.perf_counter()
+        ik = self.ik.solve(robot.q, targets)
+        t_ik = time.perf_counter()
+        if not (np.all(np.isfinite(ik.q_des)) and np.all(np.isfinite(ik.qd_des))):
+            return self._fallback(state, command, clipped, start, reason="IK returned non-finite targets")
+        contact = np.zeros(2, dtype=bool)
+        contact[stance] = True
+        contact[swing] = bool(state.contact[swing]) and phase < 0.1  # double support just after touchdown
+        problem, sliding = self.qp.build(robot, contact, ik.q_des, ik.qd_des, np.zeros(c.NUM_JOINTS))
+        result = self.qp.solve(robot, problem, sliding)
+        t_qp = time.perf_counter()
+        if not result.solved:
+            return self._fallback(state, command, clipped, start, reason="QP not solved", qp_iterations=result.iterations)
+        tau = result.tau
+        if cfg.output == "pd":
+            qd_cmd = ik.qd_des
+            q_cmd = state.q + (tau - self._kd * (qd_cmd - state.qd)) / self._kp
+            joint_command = JointCommand(q_des=q_cmd, qd_des=qd_cmd)
+        else:
+            joint_command = JointCommand(q_des=state.q.copy(), qd_des=state.qd.copy(), tau_ff=tau)
+        self._last_q_des = ik.q_des
+        com_acceleration = robot.com_acceleration(result.acceleration)
+        report = AssumptionReport(
+            com_height_error_m=float(alip.com_height - cfg.com_height_m),
+            com_vertical_velocity_mps=float(alip.com_velocity[2]),
+            com_vertical_acceleration_mps2=float(com_acceleration[2]),
+            stance_slip_speed_mps=float(np.linalg.norm(robot.sole_velocity(stance)[:2])),
+            centroidal_angular_momentum=float(np.linalg.norm(robot.centroidal_angular_momentum)),
+            qp_solved=True, torque_saturation=saturation(tau, c.TORQUE_LIMIT_NM))
+        end = time.perf_counter()
+        self.last_diagnostics = ControllerDiagnostics(
+            assumptions=report, stance=stance, phase=phase, touchdown=touchdown, alip=alip, foot_target_world=target,
+            command_used=command, command_clipped=clipped, ik_converged=ik.converged, qp_iterations=result.iterations,
+            fallback=False, fallback_count=self.fallback_count, tau=tau,
+            tick_time_s={"alip": t_alip - start, "ik": t_ik - t_alip, "qp": t_qp - t_ik, "total": end - start})
+        return joint_command
+
+    def _foot_step(self, alip: AlipState, command: np.ndarray, stance: int) -> tuple[np.ndarray, float]:
+        """Next foot position relative to the stance sole (heading frame), and the time left [s]."""
+        cfg, model, clock = self.config, self.alip, self.clock
+        T = cfg.timing.step_duration_s
+        next_stance_sign = 1 if stance == RIGHT else -1  # the swing foot becomes the stance foot
+        L_des = np.array([model.mz * model.end_velocity_for_mean(command[0], T),
+                          model.lateral_end_momentum(next_stance_sign, cfg.step_width_m, T, command[1])])
+        swing_side = 1.0 if stance == RIGHT else -1.0  # the swing foot lands to the left (+1) or right (-1)
+        if self.mpc is not None:
+            n = self.mpc.config.horizon_steps
+            sequence = np.array([[L_des[0], model.lateral_end_momentum(next_stance_sign * (-1) ** k, cfg.step_width_m, T,
+                                                                       command[1])] for k in range(n)])
+            solution = self.mpc.solve(alip.x, alip.L, clock.time_in_step_s, -int(swing_side), sequence)
+            step, time_left = solution.steps_m[0], solution.time_left_s
+        else:
+            time_left = clock.time_to_touchdown_s
+            x_end, L_end = model.propagate(alip.x, alip.L, time_left)
+            step = x_end + model.foot_placement(L_end, L_des / model.mz, T)
+        step = np.array([np.clip(step[0], -cfg.max_step_length_m, cfg.max_step_length_m),
+                         swing_side * np.clip(swing_side * step[1], cfg.min_step_width_m, cfg.max_step_width_m)])
+        return step, time_left
+
+    # --- failures -------------------------------------------------------------------------------------
+
+    @staticmethod
+    def _finite_state(state: RobotState) -> bool:
+        arrays = (state.base_pos, state.base_quat, state.base_linvel, state.base_angvel, state.q, state.qd)
+        return bool(np.isfinite(state.time) and all(np.all(np.isfinite(a)) for a in arrays)
+                    and np.linalg.norm(state.base_quat) > 1e-6)
+
+    def _fallback(self, state: RobotState, command: np.ndarray, clipped: bool, start: float, reason: str,
+                  qp_iterations: int = 0) -> JointCommand:
+        """Damped hold of the last good joint targets."""
+        self.fallback_count += 1
+        if self.fallback_count == 1:
+            warnings.warn(f"AlipController fell back to a damped hold ({reason})", RuntimeWarning, stacklevel=3)
+        report = AssumptionReport(np.nan, np.nan, np.nan, np.nan, np.nan, qp_solved=False, torque_saturation=0.0)
+        self.last_diagnostics = ControllerDiagnostics(
+            assumptions=report, stance=self.clock.stance, phase=self.clock.phase, touchdown=False, alip=None,
+            foot_target_world=np.full(3, np.nan), command_used=command, command_clipped=clipped, ik_converged=False,
+            qp_iterations=qp_iterations, fallback=True, fallback_count=self.fallback_count, tau=np.zeros(c.NUM_JOINTS),
+            tick_time_s={"alip": 0.0, "ik": 0.0, "qp": 0.0, "total": time.perf_counter() - start})
+        return JointCommand.hold(self._last_q_des)

@@ -1,0 +1,152 @@
+"""Whole-body inverse kinematics on placo: joint targets from task-space targets.
+
+Tasks, from the measured configuration (floating base free):
+* stance sole: held where it is (hard);
+* swing sole: position and flat orientation with the heading yaw (soft, high weight);
+* pelvis: upright with the heading yaw (soft); horizontal position at the measured one (weak),
+  so the CoM keeps rolling over the stance foot as the ALIP dynamics says;
+* CoM height above the stance sole at the ALIP model's z (soft);
+* posture toward the nominal stand, and a small regularization.
+
+`solve` returns q_des for this tick and qd_des from one more IK step toward the targets advanced
+by one control period along their velocities.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import placo
+
+from mbc.alip_state import yaw_rotation
+from mbc.errors import ConfigError
+from mbc.robot import JointMap
+from robots.digit import constants as c
+from robots.digit.urdf import URDF_PATH
+
+
+@dataclass(frozen=True)
+class IkConfig:
+    """IK task weights and iteration count."""
+
+    iterations: int = 2
+    """IK steps per tick toward the targets (each a small QP)."""
+    swing_weight: float = 10.0
+    pelvis_orientation_weight: float = 10.0
+    com_height_weight: float = 10.0
+    pelvis_xy_weight: float = 1.0
+    posture_weight: float = 1e-3
+    regularization: float = 1e-5
+    convergence_tolerance_m: float = 0.02
+    """Largest swing-position or CoM-height error [m] counted as converged."""
+
+    def __post_init__(self) -> None:
+        if self.iterations < 1:
+            raise ConfigError(f"iterations must be >= 1, got {self.iterations}")
+
+
+@dataclass(frozen=True)
+class IkTargets:
+    """World-frame targets of one tick."""
+
+    stance: int
+    """0 left, 1 right."""
+    swing_position: np.ndarray
+    """(3,) swing sole position [m]."""
+    swing_velocity: np.ndarray
+    """(3,) swing sole velocity [m/s]."""
+    swing_yaw: float
+    pelvis_yaw: float
+    com_height: float
+    """CoM z (world) [m]."""
+    pelvis_xy: np.ndarray
+    """(2,) pelvis horizontal position [m]."""
+    pelvis_xy_velocity: np.ndarray
+
+
+@dataclass(frozen=True)
+class IkResult:
+    q_des: np.ndarray
+    """(12,) joint positions [rad]."""
+    qd_des: np.ndarray
+    """(12,) joint velocities [rad/s]."""
+    converged: bool
+    swing_error_m: float
+    com_height_error_m: float
+
+
+def _pose(position: np.ndarray, yaw: float) -> np.ndarray:
+    pose = np.eye(4)
+    pose[:3, :3] = yaw_rotation(yaw)
+    pose[:3, 3] = position
+    return pose
+
+
+class WholeBodyIK:
+    """Joint targets from task targets, with placo's kinematics solver."""
+
+    def __init__(self, config: IkConfig | None = None, dt: float = 0.005) -> None:
+        self.config = cfg = config or IkConfig()
+        self.dt = dt
+        self.robot = placo.RobotWrapper(str(URDF_PATH), placo.Flags.ignore_collisions)
+        self.joint_map = JointMap.for_pinocchio(self.robot.model)
+        self.solver = placo.KinematicsSolver(self.robot)
+        self.solver.mask_fbase(False)
+        self.solver.enable_joint_limits(True)
+        self.solver.dt = dt
+        self._sole_tasks = [self.solver.add_frame_task(name, np.eye(4)) for name in c.SOLE_FRAMES]
+        self._pelvis_orientation = self.solver.add_orientation_task(c.BASE_LINK, np.eye(3))
+        self._pelvis_orientation.configure("pelvis_orientation", "soft", cfg.pelvis_orientation_weight)
+        self._pelvis_xy = self.solver.add_position_task(c.BASE_LINK, np.zeros(3))
+        self._pelvis_xy.mask.set_axises("xy")
+        self._pelvis_xy.configure("pelvis_xy", "soft", cfg.pelvis_xy_weight)
+        self._com = self.solver.add_com_task(np.zeros(3))
+        self._com.mask.set_axises("z")
+        self._com.configure("com_height", "soft", cfg.com_height_weight)
+        posture = self.solver.add_joints_task()
+        posture.set_joints(dict(zip(c.JOINT_NAMES, c.Q_STAND.tolist())))
+        posture.configure("posture", "soft", cfg.posture_weight)
+        self.solver.add_regularization_task(cfg.regularization)
+        self._stance = -1
+
+    def _configure_stance(self, stance: int) -> None:
+        if stance == self._stance:
+            return
+        self._sole_tasks[stance].configure("stance", "hard", 1.0)
+        self._sole_tasks[1 - stance].configure("swing", "soft", self.config.swing_weight)
+        self._stance = stance
+
+    def _set_targets(self, targets: IkTargets, stance_pose: np.ndarray, ahead_s: float) -> None:
+        swing = self._sole_tasks[1 - targets.stance]
+        swing.T_world_frame = _pose(targets.swing_position + ahead_s * targets.swing_velocity, targets.swing_yaw)
+        self._sole_tasks[targets.stance].T_world_frame = stance_pose
+        self._pelvis_orientation.R_world_frame = yaw_rotation(targets.pelvis_yaw)
+        self._pelvis_xy.target_world = np.r_[targets.pelvis_xy + ahead_s * targets.pelvis_xy_velocity, 0.0]
+        self._com.target_world = np.array([0.0, 0.0, targets.com_height])
+
+    def solve(self, q_measured: np.ndarray, targets: IkTargets) -> IkResult:
+        """IK from the measured pinocchio configuration `q_measured` toward `targets`."""
+        robot = self.robot
+        robot.state.q = q_measured.copy()
+        robot.update_kinematics()
+        self._configure_stance(targets.stance)
+        stance_name = c.SOLE_FRAMES[targets.stance]
+        stance_pose = robot.get_T_world_frame(stance_name)
+        self._set_targets(targets, stance_pose, 0.0)
+        for _ in range(self.config.iterations):
+            self.solver.solve(True)
+            robot.update_kinematics()
+        q_now = robot.state.q.copy()
+        swing_error = float(np.linalg.norm(robot.get_T_world_frame(c.SOLE_FRAMES[1 - targets.stance])[:3, 3]
+                                           - targets.swing_position))
+        com_error = float(robot.com_world()[2] - targets.com_height)
+        self._set_targets(targets, stance_pose, self.dt)
+        self.solver.solve(True)
+        q_ahead = robot.state.q
+        q_des = q_now[self.joint_map.q]
+        qd_des = (q_ahead[self.joint_map.q] - q_des) / self.dt
+        tol = self.config.convergence_tolerance_m
+        converged = bool(swing_error < tol and abs(com_error) < tol and np.all(np.isfinite(q_des)))
+        return IkResult(q_des=q_des, qd_des=qd_des, converged=converged, swing_error_m=swing_error,
+                        com_height_error_m=com_error)

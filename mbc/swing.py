@@ -1,0 +1,90 @@
+r"""Swing-foot trajectories: clearance, soft landing, and retargeting from the measured foot.
+
+Horizontal: a time-to-go law. With the minimum-jerk blend b(s) = 10 s^3 - 15 s^4 + 6 s^5 and the
+foot measured at p, the desired position one control period ahead (phase s -> s + ds) is
+
+    p_des = p + (p_target - p) (b(s + ds) - b(s)) / (1 - b(s)),
+
+so the foot arrives at the (possibly moving) target at s = 1 with zero velocity, and the output
+depends only on the observed foot, the target and the phase (no stored trajectory).
+
+Vertical, relative to the target's ground height: a lift-and-lower profile with apex `clearance`
+at s = `apex_phase` and zero velocity at s = 0 and s = 1; after s = 1 (late touchdown) the foot
+keeps descending at `late_descent_mps` to find the ground.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mbc.errors import ConfigError
+
+
+def min_jerk(s):
+    """Minimum-jerk blend b(s) on [0, 1] (clipped outside), and its derivative db/ds."""
+    s = np.clip(s, 0.0, 1.0)
+    return 10 * s**3 - 15 * s**4 + 6 * s**5, 30 * s**2 - 60 * s**3 + 30 * s**4
+
+
+@dataclass(frozen=True)
+class SwingConfig:
+    """Swing-foot trajectory parameters."""
+
+    clearance_m: float = 0.08
+    """Apex height of the sole above the landing height [m]."""
+    apex_phase: float = 0.5
+    """Phase of the apex."""
+    landing_velocity_mps: float = 0.0
+    """Downward sole speed at s = 1 (0: soft landing) [m/s]."""
+    late_descent_mps: float = 0.3
+    """Descent speed after s = 1 while waiting for contact [m/s]."""
+
+    def __post_init__(self) -> None:
+        if self.clearance_m < 0:
+            raise ConfigError(f"clearance_m must be >= 0, got {self.clearance_m}")
+        if not 0 < self.apex_phase < 1:
+            raise ConfigError(f"apex_phase must be in (0, 1), got {self.apex_phase}")
+
+
+def _vertical(s: float, cfg: SwingConfig, duration: float) -> tuple[float, float]:
+    """Height above the landing height and its time derivative at phase s.
+
+    Rise: cubic from (0, 0 m/s) to (h, 0 m/s) on [0, apex]; fall: cubic from (h, 0) to
+    (0, -landing_velocity) on [apex, 1]; below: linear descent.
+    """
+    h, a = cfg.clearance_m, cfg.apex_phase
+    if s >= 1.0:
+        return -cfg.late_descent_mps * (s - 1.0) * duration, -cfg.late_descent_mps
+    if s <= a:
+        u = max(s, 0.0) / a
+        return h * (3 * u**2 - 2 * u**3), h * (6 * u - 6 * u**2) / (a * duration)
+    u = (s - a) / (1 - a)
+    span = (1 - a) * duration
+    v_end = -cfg.landing_velocity_mps * span  # end slope in units of u
+    # Hermite: p(0)=h, p'(0)=0, p(1)=0, p'(1)=v_end
+    h00, h11 = 2 * u**3 - 3 * u**2 + 1, u**3 - u**2
+    d00, d11 = 6 * u**2 - 6 * u, 3 * u**2 - 2 * u
+    return h * h00 + v_end * h11, (h * d00 + v_end * d11) / span
+
+
+def swing_reference(p_measured: np.ndarray, p_target: np.ndarray, phase: float, phase_step: float,
+                    duration_s: float, cfg: SwingConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Desired sole position one control period ahead and its velocity (world) [m, m/s].
+
+    p_measured: (3,) measured sole; p_target: (3,) landing point (its z is the landing height);
+    phase: current phase s; phase_step: ds of one control period; duration_s: step duration T.
+    """
+    b_now, _ = min_jerk(phase)
+    b_next, db_next = min_jerk(phase + phase_step)
+    remaining = 1.0 - b_now
+    horizontal = p_target[:2] - p_measured[:2]
+    if remaining > 1e-6 and phase < 1.0:
+        fraction = (b_next - b_now) / remaining
+        velocity_xy = horizontal * db_next / (remaining * duration_s)
+    else:
+        fraction, velocity_xy = 1.0, np.zeros(2)
+    height, velocity_z = _vertical(phase + phase_step, cfg, duration_s)
+    position = np.r_[p_measured[:2] + fraction * horizontal, p_target[2] + height]
+    return position, np.r_[velocity_xy, velocity_z]
