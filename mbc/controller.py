@@ -34,7 +34,7 @@ from mbc.errors import ConfigError
 from mbc.ik import IkConfig, IkTargets, WholeBodyIK
 from mbc.passivity import PassivityConfig, PassivityQp
 from mbc.pin_robot import PinRobot
-from mbc.swing import SwingConfig, min_jerk, swing_reference
+from mbc.swing import SwingConfig, swing_reference
 from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig
 from mbc.types import Command, JointCommand, RobotState
 from robots.digit import constants as c
@@ -219,13 +219,10 @@ class AlipController:
         stance_yaw = _yaw_of(robot.sole_rotation(stance))
         swing_yaw_now = _yaw_of(robot.sole_rotation(swing))
         turn = np.clip(command[2] * T, -cfg.max_turn_per_step_rad, cfg.max_turn_per_step_rad)
-        b_now, _ = min_jerk(phase)
-        b_next, _ = min_jerk(phase + phase_step)
-        fraction = 1.0 if b_now >= 1.0 else (b_next - b_now) / (1.0 - b_now)
-        swing_yaw = swing_yaw_now + fraction * _wrap(stance_yaw + turn - swing_yaw_now)
+        swing_yaw = stance_yaw + turn  # the landing yaw: the light foot turns early in the swing
         targets = IkTargets(
             stance=stance, swing_position=swing_position, swing_velocity=swing_velocity, swing_yaw=swing_yaw,
-            pelvis_yaw=stance_yaw + 0.5 * _wrap(swing_yaw - stance_yaw), com_height=stance_sole[2] + cfg.com_height_m,
+            pelvis_yaw=stance_yaw + 0.5 * _wrap(swing_yaw_now - stance_yaw), com_height=stance_sole[2] + cfg.com_height_m,
             pelvis_xy=state.base_pos[:2], pelvis_xy_velocity=state.base_linvel[:2])
         t_alip = time.perf_counter()
         ik = self.ik.solve(robot.q, targets)

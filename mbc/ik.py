@@ -113,8 +113,8 @@ class WholeBodyIK:
     def _configure_stance(self, stance: int) -> None:
         if stance == self._stance:
             return
-        self._sole_tasks[stance].configure("stance", "hard", 1.0)
-        self._sole_tasks[1 - stance].configure("swing", "soft", self.config.swing_weight)
+        self._sole_tasks[stance].configure("stance", "hard", 1.0, 1.0)
+        self._sole_tasks[1 - stance].configure("swing", "soft", self.config.swing_weight, self.config.swing_weight)
         self._stance = stance
 
     def _set_targets(self, targets: IkTargets, stance_pose: np.ndarray, ahead_s: float) -> None:

@@ -57,6 +57,9 @@ class PassivityConfig:
     damping: tuple[float, ...] = (40.0, 30.0, 40.0, 40.0, 10.0, 4.0)
     """K_D per leg joint (hip roll .. ankle roll) [N m s / rad]."""
     joint_weight: float = 1.0
+    stance_ankle_weight: float = 0.01
+    """Tracking weight of the stance ankle, relative to the other joints: ALIP's pivot is nearly
+    passive, so the stance-ankle torque comes from keeping the foot flat (CoP in the foot)."""
     base_weight: float = 1e-3
     force_weight: float = 1e-5
     torque_weight: float = 1e-6
@@ -143,8 +146,12 @@ class PassivityQp:
         g = np.zeros(N_VARS)
         base = np.arange(6)
         H[base, base] = cfg.base_weight
-        H[joints_v, joints_v] = cfg.joint_weight
-        g[joints_v] = -cfg.joint_weight * a_ref
+        weights = np.full(c.NUM_JOINTS, cfg.joint_weight)
+        for side in range(2):
+            if contact[side] and not contact[1 - side]:
+                weights[side * 6 + 4: side * 6 + 6] *= cfg.stance_ankle_weight
+        H[joints_v, joints_v] = weights
+        g[joints_v] = -weights * a_ref
         H[F_SLICE, F_SLICE] = cfg.force_weight * np.eye(NF)
         H[TAU_SLICE, TAU_SLICE] = cfg.torque_weight * np.eye(c.NUM_JOINTS)
 

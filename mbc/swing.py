@@ -40,6 +40,9 @@ class SwingConfig:
     """Downward sole speed at s = 1 (0: soft landing) [m/s]."""
     late_descent_mps: float = 0.3
     """Descent speed after s = 1 while waiting for contact [m/s]."""
+    landing_offset_m: float = 0.004
+    """The profile ends this far above the landing height: tracking lag and the contact threshold
+    otherwise make the foot touch down before s = 1, shortening every step [m]."""
 
     def __post_init__(self) -> None:
         if self.clearance_m < 0:
@@ -86,5 +89,5 @@ def swing_reference(p_measured: np.ndarray, p_target: np.ndarray, phase: float, 
     else:
         fraction, velocity_xy = 1.0, np.zeros(2)
     height, velocity_z = _vertical(phase + phase_step, cfg, duration_s)
-    position = np.r_[p_measured[:2] + fraction * horizontal, p_target[2] + height]
+    position = np.r_[p_measured[:2] + fraction * horizontal, p_target[2] + cfg.landing_offset_m + height]
     return position, np.r_[velocity_xy, velocity_z]
