@@ -176,7 +176,8 @@ class AlipController:
         if phase is None:
             phase = 0.5 if contact.sum() == 1 else 0.0
         self.clock.reset(state.time, stance, phase)
-        self._last_q_des = np.asarray(state.q, dtype=float).copy()
+        q = np.asarray(state.q, dtype=float)
+        self._last_q_des = np.where(np.isfinite(q), q, c.Q_STAND)
         self.fallback_count = 0
         self._started = True
 
@@ -188,8 +189,8 @@ class AlipController:
             self.reset(state)
         start = time.perf_counter()
         command_used, clipped = self.config.limits.clip(command)
-        if not self._finite_state(state):
-            return self._fallback(state, command_used, clipped, start, reason="non-finite state")
+        if not self._plausible_state(state):
+            return self._fallback(state, command_used, clipped, start, reason="non-finite or implausible state")
         try:
             return self._tick(state, command_used, clipped, start)
         except Exception as exc:  # solver exceptions (placo QPError, linear algebra, ...) -> safe command
@@ -227,7 +228,7 @@ class AlipController:
         t_alip = time.perf_counter()
         ik = self.ik.solve(robot.q, targets)
         t_ik = time.perf_counter()
-        if not (np.all(np.isfinite(ik.q_des)) and np.all(np.isfinite(ik.qd_des))):
+        if not (np.isfinite(ik.q_des).all() and np.isfinite(ik.qd_des).all()):
             return self._fallback(state, command, clipped, start, reason="IK returned non-finite targets")
         contact = np.zeros(2, dtype=bool)
         contact[stance] = True
@@ -286,10 +287,13 @@ class AlipController:
     # --- failures -------------------------------------------------------------------------------------
 
     @staticmethod
-    def _finite_state(state: RobotState) -> bool:
+    def _plausible_state(state: RobotState) -> bool:
+        """Finite, a usable quaternion, and speeds a walking robot can have (10x the motors' limits)."""
         arrays = (state.base_pos, state.base_quat, state.base_linvel, state.base_angvel, state.q, state.qd)
-        return bool(np.isfinite(state.time) and all(np.all(np.isfinite(a)) for a in arrays)
-                    and np.linalg.norm(state.base_quat) > 1e-6)
+        if not (np.isfinite(state.time) and np.isfinite(np.concatenate(arrays)).all()):
+            return False
+        return bool(np.linalg.norm(state.base_quat) > 1e-6 and np.all(np.abs(state.qd) < 10 * c.SPEED_LIMIT_RADPS)
+                    and np.linalg.norm(state.base_linvel) < 20.0 and np.linalg.norm(state.base_angvel) < 50.0)
 
     def _fallback(self, state: RobotState, command: np.ndarray, clipped: bool, start: float, reason: str,
                   qp_iterations: int = 0) -> JointCommand:

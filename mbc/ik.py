@@ -147,6 +147,6 @@ class WholeBodyIK:
         q_des = q_now[self.joint_map.q]
         qd_des = (q_ahead[self.joint_map.q] - q_des) / self.dt
         tol = self.config.convergence_tolerance_m
-        converged = bool(swing_error < tol and abs(com_error) < tol and np.all(np.isfinite(q_des)))
+        converged = bool(swing_error < tol and abs(com_error) < tol and np.isfinite(q_des).all())
         return IkResult(q_des=q_des, qd_des=qd_des, converged=converged, swing_error_m=swing_error,
                         com_height_error_m=com_error)

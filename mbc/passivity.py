@@ -67,7 +67,10 @@ class PassivityConfig:
     """w_c: weight of the stance-foot acceleration cost, relative to joint tracking."""
     contact_damping: float = 20.0
     """k_c: stance-foot velocity feedback in the contact acceleration cost [1/s]."""
-    eps_abs: float = 1e-6
+    eps_abs: float = 1e-4
+    """Absolute accuracy of the QP solution (forces in N, torques in N m)."""
+    max_iterations: int = 200
+    """Cap on proxsuite's outer and inner iterations (walking solves take ~5-50)."""
 
     def __post_init__(self) -> None:
         if not self.friction > 0:
@@ -85,7 +88,7 @@ class QpProblem:
     A: np.ndarray
     b: np.ndarray
     C: np.ndarray
-    l: np.ndarray
+    l: np.ndarray  # noqa: E741 (proxsuite's name)
     u: np.ndarray
 
 
@@ -123,6 +126,9 @@ class PassivityQp:
         self._damping = np.tile(np.asarray(cfg.damping, dtype=float), 2)
         self._qp = proxsuite.proxqp.dense.QP(N_VARS, N_EQ, N_IN)
         self._qp.settings.eps_abs = cfg.eps_abs
+        self._qp.settings.eps_rel = 0.0
+        self._qp.settings.max_iter = cfg.max_iterations  # a non-converged solve is a failure, not a stall
+        self._qp.settings.max_iter_in = cfg.max_iterations
         self._qp.settings.verbose = False
         self._qp.settings.eps_primal_inf = 1e-12  # the QP is always feasible; avoid false certificates
         self._qp.settings.eps_dual_inf = 1e-12
@@ -150,7 +156,8 @@ class PassivityQp:
         for side in range(2):
             if contact[side] and not contact[1 - side]:
                 weights[side * 6 + 4: side * 6 + 6] *= cfg.stance_ankle_weight
-        H[joints_v, joints_v] = weights
+        diagonal = np.arange(model.nv)[joints_v]
+        H[diagonal, diagonal] = weights
         g[joints_v] = -weights * a_ref
         H[F_SLICE, F_SLICE] = cfg.force_weight * np.eye(NF)
         H[TAU_SLICE, TAU_SLICE] = cfg.torque_weight * np.eye(c.NUM_JOINTS)
@@ -200,13 +207,13 @@ class PassivityQp:
             qp.update(H=problem.H, g=problem.g, A=problem.A, b=problem.b, C=problem.C, l=problem.l, u=problem.u)
         qp.solve()
         x = qp.results.x
-        solved = qp.results.info.status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED and bool(np.all(np.isfinite(x)))
+        solved = qp.results.info.status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED and bool(np.isfinite(x).all())
         residual = max(float(np.max(np.abs(problem.A @ x - problem.b))),
                        float(np.max(np.maximum(problem.C @ x - problem.u, problem.l - problem.C @ x))))
         tau_qp = x[TAU_SLICE].copy()
         joints_v = robot.joint_map.v
         coriolis = pin.computeCoriolisMatrix(robot.model, robot.data, robot.q, robot.v)
-        tau = tau_qp - coriolis[np.ix_(joints_v, joints_v)] @ sliding - self._damping * sliding
+        tau = tau_qp - coriolis[joints_v, joints_v] @ sliding - self._damping * sliding
         tau = np.clip(tau, -c.TORQUE_LIMIT_NM, c.TORQUE_LIMIT_NM)
         return QpResult(tau=tau, tau_qp=tau_qp, acceleration=x[A_SLICE].copy(), forces=x[F_SLICE].reshape(8, 3).copy(),
                         solved=solved, iterations=int(qp.results.info.iter), residual=residual)

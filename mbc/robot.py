@@ -114,14 +114,25 @@ def _add_leg_geoms(spec: mujoco.MjSpec, side: str, foot: str) -> None:
                    contype=LOWER_CONTYPE[side], conaffinity=LOWER_CONAFFINITY[side], rgba=[0.3, 0.35, 0.45, 1])
 
 
+def as_slice(indices) -> slice | np.ndarray:
+    """A slice where the indices are consecutive (indexing with it is ~10x faster), else the array."""
+    indices = np.asarray(indices)
+    if np.array_equal(indices, np.arange(indices[0], indices[0] + len(indices))):
+        return slice(int(indices[0]), int(indices[0]) + len(indices))
+    return indices
+
+
 @dataclass(frozen=True)
 class JointMap:
-    """Where the `JOINT_NAMES` columns sit in a library's configuration and velocity vectors."""
+    """Where the `JOINT_NAMES` columns sit in a library's configuration and velocity vectors.
 
-    q: np.ndarray
-    """(12,) indices into the configuration vector."""
-    v: np.ndarray
-    """(12,) indices into the velocity vector."""
+    `q` and `v` are slices when the columns are consecutive (they are, for the generated URDF).
+    """
+
+    q: slice | np.ndarray
+    """The 12 positions in the configuration vector."""
+    v: slice | np.ndarray
+    """The 12 velocities in the velocity vector."""
 
     @classmethod
     def for_pinocchio(cls, model: pin.Model) -> JointMap:
@@ -129,7 +140,7 @@ class JointMap:
         if any(i >= model.njoints for i in ids):
             missing = [n for n, i in zip(c.JOINT_NAMES, ids) if i >= model.njoints]
             raise ModelLoadError(f"pinocchio model lacks joints {missing}")
-        return cls(q=np.array([model.idx_qs[i] for i in ids]), v=np.array([model.idx_vs[i] for i in ids]))
+        return cls(q=as_slice([model.idx_qs[i] for i in ids]), v=as_slice([model.idx_vs[i] for i in ids]))
 
     @classmethod
     def for_mujoco(cls, model: mujoco.MjModel) -> JointMap:
@@ -137,7 +148,7 @@ class JointMap:
         if min(ids) < 0:
             missing = [n for n, i in zip(c.JOINT_NAMES, ids) if i < 0]
             raise ModelLoadError(f"MuJoCo model lacks joints {missing}")
-        return cls(q=model.jnt_qposadr[ids].copy(), v=model.jnt_dofadr[ids].copy())
+        return cls(q=as_slice(model.jnt_qposadr[ids]), v=as_slice(model.jnt_dofadr[ids]))
 
 
 def quat_wxyz_to_xyzw(quat: np.ndarray) -> np.ndarray:

@@ -19,7 +19,7 @@ def _vector(name: str, value, size: int) -> np.ndarray:
     array = np.asarray(value, dtype=float)
     if array.shape != (size,):
         raise ConfigError(f"{name} must have shape ({size},), got {array.shape}")
-    if not np.all(np.isfinite(array)):
+    if not np.isfinite(array).all():
         raise ConfigError(f"{name} must be finite, got {array}")
     return array
 

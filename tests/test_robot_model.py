@@ -47,13 +47,16 @@ def test_stand_com_height_and_flat_soles(pin_model):
 
 def test_joint_maps_both_ways(pin_model, mj_model):
     pin_map, mj_map = JointMap.for_pinocchio(pin_model), JointMap.for_mujoco(mj_model)
-    for k, name in enumerate(c.JOINT_NAMES):
-        mj_joint = [j for j in range(mj_model.njnt) if mj_model.jnt_qposadr[j] == mj_map.q[k]][0]
+    mj_q, pin_q = np.arange(mj_model.nq)[mj_map.q], np.arange(pin_model.nq)[pin_map.q]
+    for k, name in enumerate(c.JOINT_NAMES):  # column -> name
+        mj_joint = next(j for j in range(mj_model.njnt) if mj_model.jnt_qposadr[j] == mj_q[k])
         assert mj_model.joint(mj_joint).name == name
-        pin_joint = [j for j in range(1, pin_model.njoints) if pin_model.idx_qs[j] == pin_map.q[k]][0]
+        pin_joint = next(j for j in range(1, pin_model.njoints) if pin_model.idx_qs[j] == pin_q[k])
         assert pin_model.names[pin_joint] == name
+    for j in range(1, mj_model.njnt):  # name -> column
+        assert mj_q[c.JOINT_NAMES.index(mj_model.joint(j).name)] == mj_model.jnt_qposadr[j]
     # every joint column is used exactly once
-    assert sorted(mj_map.q) == list(range(7, 19)) and sorted(pin_map.v) == list(range(6, 18))
+    assert sorted(mj_q) == list(range(7, 19)) and sorted(np.arange(pin_model.nv)[pin_map.v]) == list(range(6, 18))
 
 
 def test_limits_match_constants(mj_model):

@@ -1,0 +1,115 @@
+"""AlipController in the loop: short walks (the long ones are in benchmarks/), robustness, contracts."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from mbc.controller import AlipController
+from mbc.errors import ConfigError
+from mbc.rollout import Push, run_episode
+from mbc.sim import DigitSim
+from mbc.types import Command, RobotState
+from robots.digit import constants as c
+
+
+@pytest.fixture(scope="module")
+def controller():
+    return AlipController.for_digit()
+
+
+def test_walks_forward_and_tracks_velocity(controller):
+    episode = run_episode(DigitSim(seed=0), controller, Command(0.4, 0.0, 0.0), 4.0)
+    assert not episode.fell
+    summary = episode.summary(since_s=1.5)
+    assert summary["mean_vx_mps"] == pytest.approx(0.4, abs=0.05)
+    assert abs(summary["mean_vy_mps"]) < 0.05
+    assert controller.fallback_count == 0
+    assert sum(d.touchdown for d in episode.diagnostics) >= 8  # it steps, rather than leaning
+
+
+def test_survives_a_lateral_push_mid_stance(controller):
+    episode = run_episode(DigitSim(seed=1), controller, Command(0.2, 0.0, 0.0), 4.0,
+                          pushes=[Push(time_s=1.6, force_n=(0.0, 100.0, 0.0), duration_s=0.2)])
+    assert not episode.fell
+
+
+def test_takes_over_mid_gait_from_another_run():
+    sim = DigitSim(seed=2)
+    episode = run_episode(sim, AlipController.for_digit(), Command(0.3, 0.0, 0.0), 1.73)
+    assert not episode.fell
+    state = sim.state()
+    assert state.contact.sum() == 1  # single support: mid-swing
+    fresh = AlipController.for_digit()
+    continued = run_episode(sim, fresh, Command(0.3, 0.0, 0.0), 3.0, state=state)
+    assert not continued.fell
+    assert fresh.clock.stance == fresh.last_diagnostics.stance
+
+
+def test_pd_output_reproduces_the_qp_torque_at_the_tick(controller):
+    sim = DigitSim()
+    state = sim.reset()
+    controller.reset(state)
+    for _ in range(30):
+        action = controller.act(state, Command(0.3, 0.0, 0.0))
+        tau_pd = sim.kp * (action.q_des - state.q) + sim.kd * (action.qd_des - state.qd) + action.tau_ff
+        np.testing.assert_allclose(tau_pd, controller.last_diagnostics.tau, atol=1e-9)
+        state = sim.step(action)
+
+
+def test_torque_output_mode():
+    controller = AlipController.for_digit(output="torque")
+    sim = DigitSim()
+    state = sim.reset()
+    action = controller.act(state, Command())
+    np.testing.assert_allclose(action.tau_ff, controller.last_diagnostics.tau)
+    np.testing.assert_allclose(action.q_des, state.q)
+
+
+def test_out_of_range_command_is_clipped_and_reported(controller):
+    sim = DigitSim()
+    state = sim.reset()
+    controller.reset(state)
+    controller.act(state, Command(5.0, -1.0, 0.1))
+    diagnostics = controller.last_diagnostics
+    assert diagnostics.command_clipped
+    np.testing.assert_allclose(diagnostics.command_used, [1.0, -0.3, 0.1])
+    with pytest.raises(ConfigError, match="finite"):
+        Command(np.nan, 0.0, 0.0)
+    with pytest.raises(ConfigError, match="unknown controller option"):
+        AlipController.for_digit(step_widht_m=0.3)
+
+
+def random_state(rng: np.random.Generator) -> RobotState:
+    """Plausible, implausible and corrupted states."""
+    quat = rng.normal(size=4)
+    state = RobotState(
+        time=float(rng.uniform(0, 100)), base_pos=np.r_[rng.normal(size=2), rng.uniform(0.3, 1.3)],
+        base_quat=quat / np.linalg.norm(quat) if rng.random() < 0.8 else np.r_[1.0, 0.1 * rng.normal(size=3)],
+        base_linvel=rng.normal(scale=2, size=3), base_angvel=rng.normal(scale=3, size=3),
+        q=rng.uniform(c.Q_MIN_RAD, c.Q_MAX_RAD), qd=rng.normal(scale=5, size=12),
+        contact=rng.random(2) < 0.5)
+    corruption = rng.integers(0, 6)
+    if corruption == 1:
+        state.q[rng.integers(12)] = np.nan
+    elif corruption == 2:
+        state.base_linvel[rng.integers(3)] = np.inf
+    elif corruption == 3:
+        state.base_quat = np.zeros(4)
+    elif corruption == 4:
+        state.qd *= 1e6
+    return state
+
+
+def test_randomized_and_corrupted_states_never_raise(rng):
+    controller = AlipController.for_digit()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for _ in range(300):
+            state = random_state(rng)
+            if rng.random() < 0.2:
+                controller.reset(state)
+            action = controller.act(state, Command(*rng.uniform(-2, 2, 3)))
+            for array in (action.q_des, action.qd_des, action.tau_ff):
+                assert np.isfinite(array).all()
+    assert controller.fallback_count > 0  # the corrupted ones fell back, and were counted
