@@ -34,7 +34,7 @@ from mbc.errors import ConfigError
 from mbc.ik import IkConfig, IkTargets, WholeBodyIK
 from mbc.passivity import PassivityConfig, PassivityQp
 from mbc.pin_robot import PinRobot
-from mbc.swing import SwingConfig, swing_reference
+from mbc.swing import SwingConfig, estimate_phase, swing_reference
 from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig
 from mbc.types import Command, JointCommand, RobotState
 from robots.digit import constants as c
@@ -167,14 +167,20 @@ class AlipController:
     def reset(self, state: RobotState, stance: int | None = None, phase: float | None = None) -> None:
         """Start from `state`, standing or mid-gait.
 
-        The stance foot is the only foot in contact, or, with both (or neither) down, the left one;
-        the phase is 0 in double support and 0.5 in single support unless given.
+        The stance foot is the only foot in contact, or, with both (or neither) down, the left one.
+        The phase is 0 in double support; in single support it is read off the swing foot's height
+        and vertical velocity on the swing profile (`swing.estimate_phase`), unless given.
         """
         contact = np.asarray(state.contact, dtype=bool)
         if stance is None:
             stance = RIGHT if (contact[RIGHT] and not contact[LEFT]) else LEFT
         if phase is None:
-            phase = 0.5 if contact.sum() == 1 else 0.0
+            phase = 0.0
+            if contact.sum() == 1 and self._plausible_state(state):
+                self.robot.update(state)
+                swing = 1 - stance
+                height = self.robot.sole_position(swing)[2] - self.robot.sole_position(stance)[2]
+                phase = estimate_phase(height, self.robot.sole_velocity(swing)[2], self.config.swing)
         self.clock.reset(state.time, stance, phase)
         q = np.asarray(state.q, dtype=float)
         self._last_q_des = np.where(np.isfinite(q), q, c.Q_STAND)

@@ -91,3 +91,20 @@ def swing_reference(p_measured: np.ndarray, p_target: np.ndarray, phase: float, 
     height, velocity_z = _vertical(phase + phase_step, cfg, duration_s)
     position = np.r_[p_measured[:2] + fraction * horizontal, p_target[2] + cfg.landing_offset_m + height]
     return position, np.r_[velocity_xy, velocity_z]
+
+
+def estimate_phase(height_m: float, vertical_velocity_mps: float, cfg: SwingConfig) -> float:
+    """The phase at which the swing profile has this height above the landing height.
+
+    Rising (positive vertical velocity) places it before the apex, falling after it; heights at or
+    below the ground read as the end of the swing. For taking over mid-gait from an observed state.
+    """
+    h = cfg.clearance_m
+    if h <= 0:
+        return 0.5
+    ratio = float(np.clip((height_m - cfg.landing_offset_m) / h, 0.0, 1.0))
+    # on either side of the apex the profile is the monotone cubic 3u^2 - 2u^3 (mirrored on the fall)
+    u = np.clip(np.roots([-2.0, 3.0, 0.0, -ratio]).real, 0.0, 1.0)
+    u = float(u[np.argmin(np.abs(3 * u**2 - 2 * u**3 - ratio))])
+    a = cfg.apex_phase
+    return u * a if vertical_velocity_mps > 0 else 1.0 - u * (1.0 - a)

@@ -7,7 +7,7 @@ from mbc.assumptions import MAR_DELTA, mar_weight
 from mbc.ik import IkTargets, WholeBodyIK
 from mbc.pin_robot import PinRobot
 from mbc.sim import DigitSim
-from mbc.swing import SwingConfig, _vertical, min_jerk, swing_reference
+from mbc.swing import SwingConfig, _vertical, estimate_phase, min_jerk, swing_reference
 
 
 def test_min_jerk_blend_and_derivative():
@@ -66,3 +66,10 @@ def test_mar_weight():
     assert mar_weight(0.0) == pytest.approx(5.0)
     assert mar_weight(np.sqrt(MAR_DELTA)) == pytest.approx(5.0 / np.e)
     assert np.all(np.diff(mar_weight(np.linspace(0, 1, 10))) < 0)
+
+
+def test_phase_estimate_inverts_the_profile():
+    cfg, T = SwingConfig(), 0.35
+    for s in (0.1, 0.3, 0.45, 0.6, 0.8, 0.95):
+        height, velocity = _vertical(s, cfg, T)
+        assert estimate_phase(height + cfg.landing_offset_m, velocity, cfg) == pytest.approx(s, abs=1e-6)

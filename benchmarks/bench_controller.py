@@ -1,0 +1,205 @@
+"""AlipController benchmarks: flat-ground velocity sweep, pushes, terrain, tick time, robustness.
+
+    python benchmarks/bench_controller.py                    # everything (about 15 min on 2 cores)
+    python benchmarks/bench_controller.py --suites speed corrupt --seeds 3
+
+Every suite prints its figures. A run succeeds when the robot does not fall; velocity tracking is
+judged on the mean heading-frame velocity after the first 3 s, within 10% or 0.05 m/s
+(yaw: 10% or 0.05 rad/s) of the command. Seeds perturb the initial state (joint angles, base
+velocity), so runs differ.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+import warnings
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+import tyro
+
+from mbc.controller import AlipController
+from mbc.rollout import Push, run_episode
+from mbc.sim import DigitSim
+from mbc.types import Command, RobotState
+from robots.digit import constants as c
+
+Suite = Literal["flat", "push", "terrain", "speed", "corrupt", "takeover"]
+
+
+@dataclass
+class Args:
+    suites: tuple[Suite, ...] = ("flat", "push", "terrain", "speed", "corrupt", "takeover")
+    seeds: int = 10
+    duration: float = 20.0
+    """Seconds per flat-ground run."""
+    workers: int = field(default_factory=lambda: os.cpu_count() or 1)
+    corrupt_states: int = 10_000
+
+
+def perturbed_start(sim: DigitSim, seed: int) -> RobotState:
+    rng = np.random.default_rng(seed)
+    state = sim.reset(seed=seed)
+    state.q = state.q + rng.uniform(-0.02, 0.02, c.NUM_JOINTS)
+    state.base_linvel = np.r_[rng.uniform(-0.05, 0.05, 2), 0.0]
+    return state
+
+
+def within(measured: float, commanded: float) -> bool:
+    return abs(measured - commanded) <= max(0.1 * abs(commanded), 0.05)
+
+
+def _walk(job: tuple) -> dict:
+    """One run: (label, commands, duration, seed, terrain, terrain params, pushes)."""
+    label, commands, duration, seed, terrain, params, pushes = job
+    warnings.simplefilter("ignore", RuntimeWarning)
+    sim = DigitSim(terrain, seed=seed, **params)
+    controller = AlipController.for_digit()
+    episode = run_episode(sim, controller, commands, duration, pushes, state=perturbed_start(sim, seed))
+    final = commands if isinstance(commands, Command) else commands[-1][1]
+    since = 3.0 if isinstance(commands, Command) else commands[-1][0] + 2.0
+    mean = episode.mean_velocity(since_s=since)
+    tracked = not episode.fell and all(within(m, cmd) for m, cmd in zip(mean, final.as_array()))
+    return {"label": label, "fell": episode.fell, "tracked": tracked, "mean": mean, "final": final.as_array(),
+            "x_end": episode.base_pos[-1][0], "fallbacks": controller.fallback_count}
+
+
+def _report(title: str, results: list[dict]) -> None:
+    print(f"\n== {title}")
+    print(f"{'case':>34} {'runs':>4} {'no fall':>8} {'tracked':>8}   mean (vx, vy, yaw) over runs")
+    for label in dict.fromkeys(r["label"] for r in results):
+        rows = [r for r in results if r["label"] == label]
+        mean = np.nanmean([r["mean"] for r in rows], axis=0)
+        print(f"{label:>34} {len(rows):4d} {sum(not r['fell'] for r in rows):8d} {sum(r['tracked'] for r in rows):8d}"
+              f"   ({mean[0]:+.3f}, {mean[1]:+.3f}, {mean[2]:+.3f})")
+    print(f"{'total':>34} {len(results):4d} {sum(not r['fell'] for r in results):8d} {sum(r['tracked'] for r in results):8d}")
+
+
+def _run_jobs(jobs: list[tuple], workers: int) -> list[dict]:
+    if workers <= 1:
+        return [_walk(job) for job in jobs]
+    with multiprocessing.get_context("fork").Pool(workers) as pool:
+        return pool.map(_walk, jobs, chunksize=1)
+
+
+def suite_flat(args: Args) -> None:
+    commands = [Command(v, 0.0, 0.0) for v in (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)]
+    commands += [Command(-0.3, 0.0, 0.0), Command(0.0, 0.2, 0.0), Command(0.0, -0.2, 0.0),
+                 Command(0.0, 0.0, 0.5), Command(0.0, 0.0, -0.5)]
+    jobs = [(f"{tuple(float(x) for x in cmd.as_array())}", cmd, args.duration, seed, "flat", {}, ())
+            for cmd in commands for seed in range(args.seeds)]
+    changes = [(0.0, Command(0.3, 0.0, 0.0)), (5.0, Command(0.0, 0.2, 0.0)), (10.0, Command(0.2, 0.0, 0.4)),
+               (15.0, Command(0.5, 0.0, 0.0))]
+    jobs += [("changes 0.3 -> vy 0.2 -> turn -> 0.5", changes, args.duration, seed, "flat", {}, ())
+             for seed in range(args.seeds)]
+    _report(f"flat ground, {args.duration:.0f} s per run", _run_jobs(jobs, args.workers))
+
+
+def suite_push(args: Args) -> None:
+    """100 N for 0.2 s on the pelvis, four directions, at phases spread over a two-step cycle."""
+    T = AlipController.for_digit().config.timing.step_duration_s
+    jobs = []
+    for name, force in (("forward", (100, 0, 0)), ("backward", (-100, 0, 0)), ("left", (0, 100, 0)),
+                        ("right", (0, -100, 0))):
+        for k in range(args.seeds):
+            push_time = 3.0 + 2 * T * k / args.seeds
+            jobs.append((f"push {name} 100 N x 0.2 s", Command(0.2, 0.0, 0.0), 8.0, k, "flat", {},
+                         (Push(push_time, force, 0.2),)))
+    _report("pushes while walking at 0.2 m/s (phases spread over a gait cycle)", _run_jobs(jobs, args.workers))
+
+
+def suite_terrain(args: Args) -> None:
+    jobs = []
+    for angle in (5.0, -5.0):
+        jobs += [(f"slope {angle:+.0f} deg (5 m incline)", Command(0.3, 0.0, 0.0), 30.0, seed, "slope",
+                  {"angle_deg": angle, "run_up_m": 1.5, "length_m": 5.0}, ()) for seed in range(args.seeds)]
+    jobs += [("uneven 2 cm", Command(0.3, 0.0, 0.0), args.duration, seed, "uneven", {"amplitude": 0.02}, ())
+             for seed in range(args.seeds)]
+    results = _run_jobs(jobs, args.workers)
+    _report("terrain", results)
+    for r in results:
+        if r["label"].startswith("slope") and not r["fell"] and r["x_end"] < 6.5:
+            print(f"   note: {r['label']} run ended at x = {r['x_end']:.2f} m, before the top (6.5 m)")
+
+
+def suite_speed(args: Args) -> None:
+    """Tick time and its split, against the physics time of one control period, in the same run."""
+    sim = DigitSim()
+    controller = AlipController.for_digit()
+    state = sim.reset()
+    controller.reset(state)
+    ticks, physics = [], []
+    for k in range(2000):
+        command = Command(0.3 if k < 1000 else 0.0, 0.0, 0.0)
+        action = controller.act(state, command)
+        ticks.append(controller.last_diagnostics.tick_time_s)
+        middle = time.perf_counter()
+        state = sim.step(action)
+        physics.append(time.perf_counter() - middle)
+    total = np.array([t["total"] for t in ticks]) * 1e3
+    print("\n== control tick time (one core, 2000 ticks walking at 0.3 m/s then standing)")
+    for part in ("alip", "ik", "qp", "total"):
+        values = np.array([t[part] for t in ticks]) * 1e3
+        print(f"   {part:>6}: median {np.median(values):.3f} ms, p99 {np.percentile(values, 99):.3f} ms")
+    print(f"   physics of one control period (DigitSim.step): median {np.median(physics) * 1e3:.3f} ms")
+    print(f"   tick / physics: {np.median(total) / (np.median(physics) * 1e3):.1f}; "
+          f"tick budget 0.5 ms met: {np.median(total) <= 0.5}; real-time factor of the loop "
+          f"{sim.dt * 1e3 / (np.median(total) + np.median(physics) * 1e3):.1f}x")
+
+
+def suite_corrupt(args: Args) -> None:
+    from tests.test_controller import random_state  # the same generator the tests use
+
+    controller = AlipController.for_digit()
+    rng = np.random.default_rng(0)
+    exceptions, non_finite = 0, 0
+    start = time.perf_counter()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for _ in range(args.corrupt_states):
+            state = random_state(rng)
+            if rng.random() < 0.2:
+                controller.reset(state)
+            try:
+                action = controller.act(state, Command(*rng.uniform(-2, 2, 3)))
+            except Exception:  # counted: the contract is that none happen
+                exceptions += 1
+                continue
+            non_finite += not all(np.isfinite(a).all() for a in (action.q_des, action.qd_des, action.tau_ff))
+    print(f"\n== {args.corrupt_states} randomized and corrupted states through act(): exceptions {exceptions}, "
+          f"non-finite outputs {non_finite}, fallbacks {controller.fallback_count} "
+          f"({time.perf_counter() - start:.0f} s)")
+
+
+def suite_takeover(args: Args) -> None:
+    """A fresh controller takes over from states of another run: mid-swing and just after a push."""
+    outcomes = []
+    for seed in range(args.seeds):
+        sim = DigitSim(seed=seed)
+        source = AlipController.for_digit()
+        t_switch = 2.0 + 0.037 * seed
+        pushes = (Push(1.8, (0.0, 80.0, 0.0), 0.15),) if seed % 2 else ()
+        run_episode(sim, source, Command(0.3, 0.0, 0.0), t_switch, pushes, state=perturbed_start(sim, seed))
+        state = sim.state()
+        fresh = AlipController.for_digit()
+        episode = run_episode(sim, fresh, Command(0.3, 0.0, 0.0), 6.0, state=state)
+        outcomes.append((int(state.contact.sum()), bool(pushes), episode.fell))
+    single = [o for o in outcomes if o[0] == 1]
+    print(f"\n== mid-gait takeover: {len(outcomes)} runs ({len(single)} from single support, "
+          f"{sum(o[1] for o in outcomes)} right after a push): falls {sum(o[2] for o in outcomes)}")
+
+
+def main(args: Args) -> None:
+    suites = {"flat": suite_flat, "push": suite_push, "terrain": suite_terrain, "speed": suite_speed,
+              "corrupt": suite_corrupt, "takeover": suite_takeover}
+    for name in args.suites:
+        start = time.perf_counter()
+        suites[name](args)
+        print(f"   ({name}: {time.perf_counter() - start:.0f} s wall)")
+
+
+if __name__ == "__main__":
+    main(tyro.cli(Args))
