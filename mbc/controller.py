@@ -105,6 +105,13 @@ class ControllerDiagnostics:
     touchdown: bool
     alip: AlipState | None
     foot_target_world: np.ndarray
+    """(3,) planned landing point of the swing foot [m]."""
+    stance_sole_world: np.ndarray
+    """(3,) stance sole (the ALIP contact point) [m]."""
+    swing_reference_world: np.ndarray
+    """(3,) swing sole reference one tick ahead [m]."""
+    com_world: np.ndarray
+    """(3,) whole-body CoM [m]."""
     command_used: np.ndarray
     """(3,) the command after clipping."""
     command_clipped: bool
@@ -263,6 +270,7 @@ class AlipController:
         end = time.perf_counter()
         self.last_diagnostics = ControllerDiagnostics(
             assumptions=report, stance=stance, phase=phase, touchdown=touchdown, alip=alip, foot_target_world=target,
+            stance_sole_world=stance_sole, swing_reference_world=swing_position, com_world=robot.com,
             command_used=command, command_clipped=clipped, ik_converged=ik.converged, qp_iterations=result.iterations,
             fallback=False, fallback_count=self.fallback_count, tau=tau,
             tick_time_s={"alip": t_alip - start, "ik": t_ik - t_alip, "qp": t_qp - t_ik, "total": end - start})
@@ -310,7 +318,9 @@ class AlipController:
         report = AssumptionReport(np.nan, np.nan, np.nan, np.nan, np.nan, qp_solved=False, torque_saturation=0.0)
         self.last_diagnostics = ControllerDiagnostics(
             assumptions=report, stance=self.clock.stance, phase=self.clock.phase, touchdown=False, alip=None,
-            foot_target_world=np.full(3, np.nan), command_used=command, command_clipped=clipped, ik_converged=False,
+            foot_target_world=np.full(3, np.nan), stance_sole_world=np.full(3, np.nan),
+            swing_reference_world=np.full(3, np.nan), com_world=np.full(3, np.nan), command_used=command,
+            command_clipped=clipped, ik_converged=False,
             qp_iterations=qp_iterations, fallback=True, fallback_count=self.fallback_count, tau=np.zeros(c.NUM_JOINTS),
             tick_time_s={"alip": 0.0, "ik": 0.0, "qp": 0.0, "total": time.perf_counter() - start})
         return JointCommand.hold(self._last_q_des)

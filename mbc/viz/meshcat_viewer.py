@@ -1,0 +1,215 @@
+"""Meshcat browser viewer: the robot, the terrain, footsteps, the CoM and its ALIP state, the swing
+reference, coloured by model-assumption violation; live, recorded and exported as HTML.
+
+    viewer = MeshcatViewer(sim)           # starts a meshcat server on 127.0.0.1 and prints its URL
+    run_episode(sim, controller, command, 10.0, on_tick=viewer.on_tick(controller))
+    viewer.export_html("walk.html")       # replays the recording, opens without a server
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import meshcat
+import meshcat.geometry as g
+import meshcat.transformations as tf
+import mujoco
+import numpy as np
+import pinocchio as pin
+
+from mbc.assumptions import MAR_W0, mar_weight
+from mbc.pin_robot import PinRobot
+from mbc.sim import DigitSim
+from mbc.sim.terrain import TERRAIN_GROUP
+from mbc.types import RobotState
+from robots.digit import constants as c
+
+_BODY = 0x5a6478
+_FOOT = 0xcc8033
+_TERRAIN = 0x8c998c
+
+
+def _segment_transform(start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """Pose of a meshcat cylinder (axis y, centred) spanning start -> end."""
+    axis = end - start
+    length = np.linalg.norm(axis)
+    y = axis / length
+    x = np.cross(y, [0.0, 0.0, 1.0]) if abs(y[2]) < 0.99 else np.array([1.0, 0.0, 0.0])
+    x /= np.linalg.norm(x)
+    pose = np.eye(4)
+    pose[:3, :3] = np.c_[x, y, np.cross(x, y)]
+    pose[:3, 3] = (start + end) / 2
+    return pose
+
+
+def violation_colour(com_vertical_velocity_mps: float) -> int:
+    """Green where the ALIP assumption holds (MAR weight w0), red where it is violated (weight 0)."""
+    violated = 1.0 - float(mar_weight(com_vertical_velocity_mps)) / MAR_W0
+    red, green = int(255 * violated), int(255 * (1 - violated))
+    return (red << 16) | (green << 8) | 40
+
+
+class MeshcatViewer:
+    """Draws `DigitSim` states and controller diagnostics in meshcat; records for replay."""
+
+    def __init__(self, sim: DigitSim | None = None, zmq_url: str | None = None, max_footsteps: int = 40) -> None:
+        self.vis = meshcat.Visualizer(zmq_url=zmq_url)
+        print(f"meshcat viewer at {self.url}")
+        self.robot = PinRobot()
+        self._joint_ids = {name: self.robot.model.getJointId(name) for name in c.JOINT_NAMES}
+        self._frames: list[tuple[float, dict[str, np.ndarray]]] = []
+        self._footsteps = 0
+        self._max_footsteps = max_footsteps
+        self._draw_robot()
+        self._draw_markers()
+        # an oblique view from the front left (the camera frame is y-up)
+        self.vis["/Cameras/default/rotated/<object>"].set_property("position", [2.2, 1.0, 2.2])
+        if sim is not None:
+            self.draw_terrain(sim.model)
+
+    @property
+    def url(self) -> str:
+        return self.vis.url()
+
+    # --- scene -------------------------------------------------------------------------------------
+
+    def _draw_robot(self) -> None:
+        material = g.MeshLambertMaterial(color=_BODY)
+        self.vis["robot/pelvis/box"].set_object(g.Box([0.2, 0.3, 0.45]), material)
+        self.vis["robot/pelvis/box"].set_transform(tf.translation_matrix([0, 0, 0.2]))
+        for side in c.SIDES:
+            links = c.leg_links(side)
+            thigh, shank = np.array(links[3].offset_m), np.array(links[4].offset_m)
+            for name, end, radius in (("hip_pitch", thigh, 0.05), ("knee", shank, 0.035)):
+                path = f"robot/{side}_{name}/segment"
+                self.vis[path].set_object(g.Cylinder(float(np.linalg.norm(end)), radius), material)
+                self.vis[path].set_transform(_segment_transform(np.zeros(3), end))
+            foot = f"robot/{side}_ankle_roll/foot"
+            centre = c.FOOT_BOX_CENTER_M if side == "left" else c.mirror_y(c.FOOT_BOX_CENTER_M)
+            self.vis[foot].set_object(g.Box(list(c.FOOT_SIZE_M)), g.MeshLambertMaterial(color=_FOOT))
+            self.vis[foot].set_transform(tf.translation_matrix(centre))
+            self.vis[f"robot/{side}_hip_roll/joint"].set_object(g.Sphere(0.05), material)
+
+    def _draw_markers(self) -> None:
+        self.vis["markers/com"].set_object(g.Sphere(0.04), g.MeshLambertMaterial(color=0x28ff28))
+        self.vis["markers/target"].set_object(g.Cylinder(0.005, 0.06), g.MeshLambertMaterial(color=0x3366ff, opacity=0.8))
+        self.vis["markers/swing"].set_object(g.Sphere(0.02), g.MeshLambertMaterial(color=0xffcc00))
+
+    def draw_terrain(self, model: mujoco.MjModel) -> None:
+        """Draw the terrain geoms of a compiled `DigitSim` model (planes, boxes, heightfields)."""
+        material = g.MeshLambertMaterial(color=_TERRAIN)
+        data = mujoco.MjData(model)
+        mujoco.mj_kinematics(model, data)
+        for geom in np.flatnonzero(model.geom_group == TERRAIN_GROUP):
+            pose = np.eye(4)
+            pose[:3, :3] = data.geom_xmat[geom].reshape(3, 3)
+            pose[:3, 3] = data.geom_xpos[geom]
+            kind, size, path = model.geom_type[geom], model.geom_size[geom], f"terrain/{geom}"
+            if kind == mujoco.mjtGeom.mjGEOM_PLANE:
+                self.vis[path].set_object(g.Box([40.0, 40.0, 0.02]), material)
+                pose = pose @ tf.translation_matrix([0, 0, -0.01])
+            elif kind == mujoco.mjtGeom.mjGEOM_BOX:
+                self.vis[path].set_object(g.Box(list(2 * size)), material)
+            elif kind == mujoco.mjtGeom.mjGEOM_HFIELD:
+                self.vis[path].set_object(self._heightfield_mesh(model, model.geom_dataid[geom]), material)
+            else:
+                continue
+            self.vis[path].set_transform(pose)
+
+    @staticmethod
+    def _heightfield_mesh(model: mujoco.MjModel, hfield: int) -> g.TriangularMeshGeometry:
+        rows, cols = model.hfield_nrow[hfield], model.hfield_ncol[hfield]
+        size_x, size_y, size_z, _ = model.hfield_size[hfield]
+        adr = model.hfield_adr[hfield]
+        heights = model.hfield_data[adr:adr + rows * cols].reshape(rows, cols) * size_z
+        xs, ys = np.linspace(-size_x, size_x, cols), np.linspace(-size_y, size_y, rows)
+        grid_x, grid_y = np.meshgrid(xs, ys)
+        vertices = np.c_[grid_x.ravel(), grid_y.ravel(), heights.ravel()]
+        index = np.arange(rows * cols).reshape(rows, cols)
+        a, b, c_, d = index[:-1, :-1].ravel(), index[:-1, 1:].ravel(), index[1:, :-1].ravel(), index[1:, 1:].ravel()
+        faces = np.r_[np.c_[a, b, d], np.c_[a, d, c_]]
+        return g.TriangularMeshGeometry(vertices, faces)
+
+    # --- updates ---------------------------------------------------------------------------------
+
+    def _link_poses(self, state: RobotState) -> dict[str, np.ndarray]:
+        self.robot.update(state)
+        data = self.robot.data
+        poses = {"robot/pelvis": pin.XYZQUATToSE3(np.r_[state.base_pos, state.base_quat[1:], state.base_quat[0]]).homogeneous}
+        for name, joint in self._joint_ids.items():
+            poses[f"robot/{name}"] = data.oMi[joint].homogeneous
+        return poses
+
+    def update(self, state: RobotState, diagnostics=None) -> None:
+        """Draw `state` and, if given, the controller's diagnostics of that tick; record the frame."""
+        poses = self._link_poses(state)
+        poses["/Cameras/default"] = tf.translation_matrix([state.base_pos[0], state.base_pos[1], 0.0])  # follow
+        com = self.robot.com
+        poses["markers/com"] = tf.translation_matrix(com)
+        if diagnostics is not None and diagnostics.alip is not None:
+            colour = violation_colour(diagnostics.assumptions.com_vertical_velocity_mps)
+            self.vis["markers/com"].set_property("color", [((colour >> s) & 255) / 255 for s in (16, 8, 0)] + [1.0])
+            poses["markers/target"] = tf.translation_matrix(diagnostics.foot_target_world) @ tf.rotation_matrix(
+                np.pi / 2, [1, 0, 0])
+            poses["markers/swing"] = tf.translation_matrix(diagnostics.swing_reference_world)
+            contact = diagnostics.stance_sole_world
+            self.vis["markers/alip"].set_object(g.Line(g.PointsGeometry(np.c_[contact, com].astype(np.float32)),
+                                                       g.LineBasicMaterial(color=colour, linewidth=3)))
+            if diagnostics.touchdown:
+                self._add_footstep(contact)
+        for path, pose in poses.items():
+            self.vis[path].set_transform(pose)
+        self._frames.append((state.time, poses))
+
+    def _add_footstep(self, position: np.ndarray) -> None:
+        path = f"footsteps/{self._footsteps % self._max_footsteps}"
+        self.vis[path].set_object(g.Box([c.FOOT_SIZE_M[0], c.FOOT_SIZE_M[1], 0.004]),
+                                  g.MeshLambertMaterial(color=0x2255aa, opacity=0.6))
+        self.vis[path].set_transform(tf.translation_matrix(position + [0, 0, 0.002]))
+        self._footsteps += 1
+
+    def on_tick(self, controller=None, every: int = 4):
+        """A `run_episode(on_tick=...)` callback drawing every `every`-th tick (with diagnostics)."""
+        counter = iter(range(1 << 62))
+
+        def callback(state: RobotState, _action) -> None:
+            if next(counter) % every == 0:
+                self.update(state, getattr(controller, "last_diagnostics", None))
+
+        return callback
+
+    # --- recording -------------------------------------------------------------------------------
+
+    def replay(self, fps: int = 30) -> None:
+        """Load the recorded frames as a meshcat animation (play it from the viewer's controls)."""
+        if not self._frames:
+            return
+        animation = meshcat.animation.Animation(default_framerate=fps)
+        start = self._frames[0][0]
+        for time_s, poses in self._frames:
+            with animation.at_frame(self.vis, int(round((time_s - start) * fps))) as frame:
+                for path, pose in poses.items():
+                    frame[path].set_transform(pose)
+        self.vis.set_animation(animation, play=True, repetitions=1)
+
+    def export_html(self, path: str | Path) -> Path:
+        """Write a self-contained HTML file of the scene with the recording as an animation."""
+        self.replay()
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(self.vis.static_html())
+        return path
+
+    def close(self) -> None:
+        """Stop the meshcat server this viewer started."""
+        close_visualizer(self.vis)
+
+
+def close_visualizer(vis: meshcat.Visualizer) -> None:
+    """Stop a visualizer's server subprocess and socket (meshcat 0.3.2's own `close` is broken)."""
+    window = vis.window
+    if getattr(window, "server_proc", None) is not None:
+        window.server_proc.terminate()
+        window.server_proc.wait(timeout=10)
+        window.server_proc = None
+    window.zmq_socket.close(linger=0)

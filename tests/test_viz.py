@@ -1,0 +1,98 @@
+"""Meshcat viewer in a real headless Chromium, and the episode plots."""
+
+import os
+import shutil
+import subprocess
+import tempfile
+import threading
+import warnings
+
+import matplotlib.image
+import meshcat
+import numpy as np
+import pytest
+
+from mbc.controller import AlipController
+from mbc.rollout import run_episode
+from mbc.sim import DigitSim
+from mbc.types import Command
+from mbc.viz import MeshcatViewer, save_all
+from mbc.viz.meshcat_viewer import close_visualizer
+
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                  "--disable-component-update", "--no-first-run", "--window-size=640,480"]
+
+
+@pytest.fixture(scope="module")
+def chromium():
+    path = shutil.which("chromium")
+    if path is None:
+        if os.environ.get("REQUIRE_BROWSER_TESTS"):
+            pytest.fail("REQUIRE_BROWSER_TESTS is set but chromium is missing")
+        pytest.skip("chromium is not installed (apt-get install -y chromium); CI installs it and runs these")
+    return path
+
+
+def screenshot(chromium: str, url: str, out, live: bool):
+    """PNG of `url` as an (h, w, 3) float array; live pages keep a websocket open, so wait in real time."""
+    wait = "--timeout=6000" if live else "--virtual-time-budget=8000"
+    subprocess.run([chromium, *CHROMIUM_FLAGS, f"--user-data-dir={tempfile.mkdtemp()}", f"--screenshot={out}", wait, url],
+                   check=True, capture_output=True, timeout=120)
+    return matplotlib.image.imread(out)[..., :3]
+
+
+def drawn_blob(image, reference) -> tuple[int, int]:
+    """Pixels that differ noticeably from the reference: how many, and the height of their bounding box."""
+    mask = np.abs(image - reference).max(axis=-1) > 0.1
+    rows = np.flatnonzero(mask.any(axis=1))
+    return int(mask.sum()), int(rows[-1] - rows[0]) if len(rows) else 0
+
+
+@pytest.fixture(scope="module")
+def empty_scene(chromium, tmp_path_factory):
+    empty = meshcat.Visualizer()
+    try:
+        yield screenshot(chromium, empty.url(), tmp_path_factory.mktemp("empty") / "empty.png", live=True)
+    finally:
+        close_visualizer(empty)
+
+
+def test_live_viewer_and_exported_html_draw_the_robot(chromium, empty_scene, tmp_path):
+    sim = DigitSim()
+    viewer = MeshcatViewer(sim)
+    try:
+        assert viewer.url.startswith("http://127.0.0.1:")
+        controller = AlipController.for_digit()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            walker = threading.Thread(target=run_episode, args=(sim, controller, Command(0.3), 2.0),
+                                      kwargs={"on_tick": viewer.on_tick(controller)})
+            walker.start()
+            live = screenshot(chromium, viewer.url, tmp_path / "live.png", live=True)
+            walker.join()
+        html = viewer.export_html(tmp_path / "walk.html")
+        exported = screenshot(chromium, html.as_uri(), tmp_path / "exported.png", live=False)
+        # the same pages without the robot: what remains is terrain and markers
+        viewer.vis["robot"].set_property("visible", False)
+        live_hidden = screenshot(chromium, viewer.url, tmp_path / "live_hidden.png", live=True)
+        hidden_html = viewer.export_html(tmp_path / "walk_hidden.html")
+        exported_hidden = screenshot(chromium, hidden_html.as_uri(), tmp_path / "exported_hidden.png", live=False)
+    finally:
+        viewer.close()
+    for image, without_robot in ((live, live_hidden), (exported, exported_hidden)):
+        assert image.std() > 0.05  # not blank
+        assert drawn_blob(image, empty_scene)[0] > 1500  # differs from an empty meshcat scene
+        pixels, height = drawn_blob(image, without_robot)
+        assert pixels > 1500 and height > 80  # the robot: a tall, robot-sized blob
+    assert html.stat().st_size > 100_000 and "<script" in html.read_text()[:2_000_000]
+
+
+def test_plots_are_written_and_not_empty(tmp_path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        episode = run_episode(DigitSim(), AlipController.for_digit(), Command(0.3, 0.0, 0.2), 2.0)
+    paths = save_all(episode, tmp_path)
+    assert len(paths) == 5
+    for path in paths:
+        image = matplotlib.image.imread(path)
+        assert path.stat().st_size > 10_000 and image.shape[0] > 300 and image[..., :3].std() > 0.02
