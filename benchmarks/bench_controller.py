@@ -22,6 +22,7 @@ import numpy as np
 import tyro
 
 from mbc.controller import AlipController
+from mbc.fuzz import random_robot_state
 from mbc.rollout import Push, run_episode
 from mbc.sim import DigitSim
 from mbc.types import Command, RobotState
@@ -151,8 +152,6 @@ def suite_speed(args: Args) -> None:
 
 
 def suite_corrupt(args: Args) -> None:
-    from tests.test_controller import random_state  # the same generator the tests use
-
     controller = AlipController.for_digit()
     rng = np.random.default_rng(0)
     exceptions, non_finite = 0, 0
@@ -160,7 +159,7 @@ def suite_corrupt(args: Args) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         for _ in range(args.corrupt_states):
-            state = random_state(rng)
+            state = random_robot_state(rng)
             if rng.random() < 0.2:
                 controller.reset(state)
             try:

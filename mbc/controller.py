@@ -71,6 +71,10 @@ class AlipControllerConfig:
     """Largest lateral step; Digit's ALIP controllers clamp to [0.1, 0.6] m. Wide steps are what
     catches a sideways push (0.45 m caught 5 of 10 pushes of 100 N x 0.2 s, 0.6 m 9 of 10)."""
     max_turn_per_step_rad: float = 0.3
+    ground_tilt_deadband_rad: float = 0.035
+    """The stance sole's tilt below this reads as flat ground (the foot rocks a little when walking)."""
+    max_ground_tilt_rad: float = 0.35
+    """Largest ground slope the landing plane follows [rad]."""
     foot_placement: Literal["one_step", "mpc"] = "one_step"
     """One-step-ahead law (default) or the multi-step ALIP MPC with step timing."""
     output: Literal["pd", "torque"] = "pd"
@@ -227,7 +231,10 @@ class AlipController:
         if self.mpc is not None:
             clock.set_step_duration(clock.time_in_step_s + time_left)
         rotation = np.array([[np.cos(heading), -np.sin(heading)], [np.sin(heading), np.cos(heading)]])
-        target = np.r_[stance_sole[:2] + rotation @ foot_step, stance_sole[2]]
+        ground_normal = self._ground_normal(robot.sole_rotation(stance))
+        offset = rotation @ foot_step
+        landing_height = -(ground_normal[:2] @ offset) / ground_normal[2]  # on the stance foot's plane
+        target = np.r_[stance_sole[:2] + offset, stance_sole[2] + landing_height]
         swing_sole = robot.sole_position(swing)
         phase = clock.phase
         phase_step = self.dt / clock.step_duration_s
@@ -239,6 +246,7 @@ class AlipController:
         swing_yaw = stance_yaw + turn  # the landing yaw: the light foot turns early in the swing
         targets = IkTargets(
             stance=stance, swing_position=swing_position, swing_velocity=swing_velocity, swing_yaw=swing_yaw,
+            ground_normal=ground_normal,
             pelvis_yaw=stance_yaw + 0.5 * _wrap(swing_yaw_now - stance_yaw), com_height=stance_sole[2] + cfg.com_height_m,
             pelvis_xy=state.base_pos[:2], pelvis_xy_velocity=state.base_linvel[:2])
         t_alip = time.perf_counter()
@@ -278,6 +286,20 @@ class AlipController:
             fallback=False, fallback_count=self.fallback_count, tau=tau,
             tick_time_s={"alip": t_alip - start, "ik": t_ik - t_alip, "qp": t_qp - t_ik, "total": end - start})
         return joint_command
+
+    def _ground_normal(self, stance_sole_rotation: np.ndarray) -> np.ndarray:
+        """The ground's normal under the stance foot, which lies flat on it: the sole's z axis.
+
+        Tilts below the deadband read as flat; larger ones are clipped to the largest slope."""
+        normal = stance_sole_rotation[:, 2]
+        tilt = float(np.arccos(np.clip(normal[2], -1.0, 1.0)))
+        if tilt < self.config.ground_tilt_deadband_rad:
+            return np.array([0.0, 0.0, 1.0])
+        if tilt > self.config.max_ground_tilt_rad:
+            horizontal = normal[:2] / np.linalg.norm(normal[:2])
+            limit = self.config.max_ground_tilt_rad
+            return np.r_[np.sin(limit) * horizontal, np.cos(limit)]
+        return normal
 
     def _foot_step(self, alip: AlipState, command: np.ndarray, stance: int) -> tuple[np.ndarray, float]:
         """Next foot position relative to the stance sole (heading frame), and the time left [s]."""

@@ -57,6 +57,8 @@ class IkTargets:
     swing_velocity: np.ndarray
     """(3,) swing sole velocity [m/s]."""
     swing_yaw: float
+    ground_normal: np.ndarray
+    """(3,) normal of the ground plane the swing foot lands on (its sole is laid on that plane)."""
     pelvis_yaw: float
     com_height: float
     """CoM z (world) [m]."""
@@ -76,9 +78,13 @@ class IkResult:
     com_height_error_m: float
 
 
-def _pose(position: np.ndarray, yaw: float) -> np.ndarray:
+def _pose(position: np.ndarray, yaw: float, normal: np.ndarray) -> np.ndarray:
+    """Pose with z along `normal` and x along the heading `yaw` projected onto that plane."""
+    heading = yaw_rotation(yaw)[:, 0]
+    x = heading - (heading @ normal) * normal
+    x /= np.linalg.norm(x)
     pose = np.eye(4)
-    pose[:3, :3] = yaw_rotation(yaw)
+    pose[:3, :3] = np.c_[x, np.cross(normal, x), normal]
     pose[:3, 3] = position
     return pose
 
@@ -119,7 +125,8 @@ class WholeBodyIK:
 
     def _set_targets(self, targets: IkTargets, stance_pose: np.ndarray, ahead_s: float) -> None:
         swing = self._sole_tasks[1 - targets.stance]
-        swing.T_world_frame = _pose(targets.swing_position + ahead_s * targets.swing_velocity, targets.swing_yaw)
+        swing.T_world_frame = _pose(targets.swing_position + ahead_s * targets.swing_velocity, targets.swing_yaw,
+                                    targets.ground_normal)
         self._sole_tasks[targets.stance].T_world_frame = stance_pose
         self._pelvis_orientation.R_world_frame = yaw_rotation(targets.pelvis_yaw)
         self._pelvis_xy.target_world = np.r_[targets.pelvis_xy + ahead_s * targets.pelvis_xy_velocity, 0.0]

@@ -7,10 +7,10 @@ import pytest
 
 from mbc.controller import AlipController
 from mbc.errors import ConfigError
+from mbc.fuzz import random_robot_state
 from mbc.rollout import Push, run_episode
 from mbc.sim import DigitSim
-from mbc.types import Command, RobotState
-from robots.digit import constants as c
+from mbc.types import Command
 
 
 @pytest.fixture(scope="module")
@@ -80,33 +80,12 @@ def test_out_of_range_command_is_clipped_and_reported(controller):
         AlipController.for_digit(step_widht_m=0.3)
 
 
-def random_state(rng: np.random.Generator) -> RobotState:
-    """Plausible, implausible and corrupted states."""
-    quat = rng.normal(size=4)
-    state = RobotState(
-        time=float(rng.uniform(0, 100)), base_pos=np.r_[rng.normal(size=2), rng.uniform(0.3, 1.3)],
-        base_quat=quat / np.linalg.norm(quat) if rng.random() < 0.8 else np.r_[1.0, 0.1 * rng.normal(size=3)],
-        base_linvel=rng.normal(scale=2, size=3), base_angvel=rng.normal(scale=3, size=3),
-        q=rng.uniform(c.Q_MIN_RAD, c.Q_MAX_RAD), qd=rng.normal(scale=5, size=12),
-        contact=rng.random(2) < 0.5)
-    corruption = rng.integers(0, 6)
-    if corruption == 1:
-        state.q[rng.integers(12)] = np.nan
-    elif corruption == 2:
-        state.base_linvel[rng.integers(3)] = np.inf
-    elif corruption == 3:
-        state.base_quat = np.zeros(4)
-    elif corruption == 4:
-        state.qd *= 1e6
-    return state
-
-
 def test_randomized_and_corrupted_states_never_raise(rng):
     controller = AlipController.for_digit()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         for _ in range(300):
-            state = random_state(rng)
+            state = random_robot_state(rng)
             if rng.random() < 0.2:
                 controller.reset(state)
             action = controller.act(state, Command(*rng.uniform(-2, 2, 3)))
