@@ -71,8 +71,9 @@ class AlipControllerConfig:
     """Largest lateral step; Digit's ALIP controllers clamp to [0.1, 0.6] m. Wide steps are what
     catches a sideways push (0.45 m caught 5 of 10 pushes of 100 N x 0.2 s, 0.6 m 9 of 10)."""
     max_turn_per_step_rad: float = 0.3
-    ground_tilt_deadband_rad: float = 0.035
-    """The stance sole's tilt below this reads as flat ground (the foot rocks a little when walking)."""
+    ground_tilt_deadband_rad: float = 0.07
+    """The stance sole's tilt below this (4 deg) reads as flat ground: the foot rocks a little when
+    walking, and on bumpy ground a local tilt extrapolated over a step misplaces the landing."""
     max_ground_tilt_rad: float = 0.35
     """Largest ground slope the landing plane follows [rad]."""
     foot_placement: Literal["one_step", "mpc"] = "one_step"
