@@ -50,7 +50,7 @@ class RobotState:
     foot_force: np.ndarray = field(default_factory=lambda: np.zeros(2))
     """(2,) left/right foot normal contact force [N]."""
     tau: np.ndarray = field(default_factory=lambda: np.zeros(NUM_JOINTS))
-    """(12,) joint torque applied over the last control period [N m] (mean over sim steps)."""
+    """(12,) joint torque applied at the last physics step [N m]."""
 
     def copy(self) -> RobotState:
         """A deep copy (arrays are not shared)."""

@@ -66,6 +66,15 @@ def test_torque_output_mode():
     np.testing.assert_allclose(action.q_des, state.q)
 
 
+def test_public_imports():
+    import mbc
+
+    assert mbc.AlipController is AlipController and mbc.DigitSim is DigitSim
+    assert mbc.AlipModel(47.9, 0.95).omega > 0
+    with pytest.raises(AttributeError):
+        _ = mbc.NoSuchThing
+
+
 def test_out_of_range_command_is_clipped_and_reported(controller):
     sim = DigitSim()
     state = sim.reset()
