@@ -8,6 +8,18 @@ from mbc.types import RobotState
 from robots.digit import constants as c
 
 
+def random_joint_positions(rng: np.random.Generator, shrink: float = 0.8) -> np.ndarray:
+    """Joint positions drawn inside the (shrunk) joint ranges."""
+    mid, half = (c.Q_MAX_RAD + c.Q_MIN_RAD) / 2, (c.Q_MAX_RAD - c.Q_MIN_RAD) / 2
+    return mid + shrink * half * rng.uniform(-1, 1, c.NUM_JOINTS)
+
+
+def random_quaternion_wxyz(rng: np.random.Generator) -> np.ndarray:
+    """A uniformly random unit quaternion, w x y z."""
+    quat = rng.normal(size=4)
+    return quat / np.linalg.norm(quat)
+
+
 def random_robot_state(rng: np.random.Generator) -> RobotState:
     """A plausible, implausible or corrupted state (NaN joint, infinite velocity, zero quaternion,
     absurd joint speeds), for checking that a controller never raises and stays finite."""
