@@ -6,10 +6,10 @@ import pinocchio as pin
 import pytest
 
 from mbc.errors import ModelLoadError
+from mbc.fuzz import random_joint_positions, random_quaternion_wxyz
 from mbc.robot import JointMap, digit_mjspec, load_pinocchio, pinocchio_configuration, pinocchio_velocity
 from robots.digit import constants as c
 from robots.digit.urdf import URDF_PATH, urdf_text
-from mbc.fuzz import random_joint_positions, random_quaternion_wxyz
 
 
 @pytest.fixture(scope="module")
