@@ -9,6 +9,13 @@ import numpy as np
 from mbc.pin_robot import PinRobot
 
 
+def yaw_of_quaternion(quat_wxyz: np.ndarray) -> np.ndarray | float:
+    """Yaw [rad] of orientation(s) given as w x y z quaternions, shape (4,) or (n, 4)."""
+    w, x, y, z = np.moveaxis(np.asarray(quat_wxyz, dtype=float), -1, 0)
+    yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return float(yaw) if np.ndim(yaw) == 0 else yaw
+
+
 def yaw_rotation(yaw: float) -> np.ndarray:
     """(3, 3) rotation about world z by `yaw` [rad]."""
     cy, sy = np.cos(yaw), np.sin(yaw)

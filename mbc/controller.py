@@ -28,7 +28,7 @@ import numpy as np
 
 from mbc.alip import AlipModel
 from mbc.alip_mpc import AlipMpc, AlipMpcConfig
-from mbc.alip_state import AlipState, alip_state
+from mbc.alip_state import AlipState, alip_state, yaw_of_quaternion
 from mbc.assumptions import AssumptionReport, saturation
 from mbc.errors import ConfigError
 from mbc.ik import IkConfig, IkTargets, WholeBodyIK
@@ -141,11 +141,6 @@ def _wrap(angle: float) -> float:
     return float((angle + np.pi) % (2 * np.pi) - np.pi)
 
 
-def _quat_yaw(quat_wxyz: np.ndarray) -> float:
-    w, x, y, z = quat_wxyz
-    return float(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
-
-
 class AlipController:
     """ALIP walking controller for Digit; implements the `Controller` protocol at 200 Hz."""
 
@@ -225,7 +220,7 @@ class AlipController:
         touchdown = clock.update(state.time, state.contact)
         stance, swing = clock.stance, clock.swing
         stance_sole = robot.sole_position(stance)
-        heading = _quat_yaw(state.base_quat)
+        heading = yaw_of_quaternion(state.base_quat)
         alip = alip_state(robot, stance_sole, heading)
         T = cfg.timing.step_duration_s
         foot_step, time_left = self._foot_step(alip, command, stance)

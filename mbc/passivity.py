@@ -133,7 +133,6 @@ class PassivityQp:
         self._qp.settings.eps_primal_inf = 1e-12  # the QP is always feasible; avoid false certificates
         self._qp.settings.eps_dual_inf = 1e-12
         self._initialized = False
-        self._joint_v = None
 
     def build(self, robot: PinRobot, contact: np.ndarray, q_des: np.ndarray, qd_des: np.ndarray,
               qdd_des: np.ndarray) -> tuple[QpProblem, np.ndarray]:

@@ -26,15 +26,9 @@ class PinRobot:
         """Forward kinematics, CoM, centroidal momentum and frame placements for `state`."""
         self.q = pinocchio_configuration(state.base_pos, state.base_quat, state.q, self.joint_map)
         self.v = pinocchio_velocity(state.base_quat, state.base_linvel, state.base_angvel, state.qd, self.joint_map)
-        self.set_configuration(self.q, self.v)
-
-    def set_configuration(self, q: np.ndarray, v: np.ndarray) -> None:
-        """As `update`, from pinocchio's own q, v."""
-        self.q, self.v = q, v
-        pin.forwardKinematics(self.model, self.data, q, v)
+        pin.forwardKinematics(self.model, self.data, self.q, self.v)
         pin.updateFramePlacements(self.model, self.data)
-        pin.centerOfMass(self.model, self.data, q, v, False)
-        pin.computeCentroidalMomentum(self.model, self.data)
+        pin.computeCentroidalMomentum(self.model, self.data)  # also the CoM, data.com[0]
 
     @property
     def com(self) -> np.ndarray:
@@ -43,8 +37,8 @@ class PinRobot:
 
     @property
     def com_velocity(self) -> np.ndarray:
-        """(3,) whole-body CoM velocity, world [m/s]."""
-        return self.data.vcom[0].copy()
+        """(3,) whole-body CoM velocity, world [m/s]: linear momentum / mass."""
+        return self.data.hg.linear / self.mass
 
     def com_acceleration(self, acceleration: np.ndarray) -> np.ndarray:
         """(3,) CoM acceleration for generalized acceleration `acceleration` at the current (q, v) [m/s^2]."""

@@ -155,10 +155,6 @@ def quat_wxyz_to_xyzw(quat: np.ndarray) -> np.ndarray:
     return np.asarray(quat)[..., [1, 2, 3, 0]]
 
 
-def quat_xyzw_to_wxyz(quat: np.ndarray) -> np.ndarray:
-    return np.asarray(quat)[..., [3, 0, 1, 2]]
-
-
 def pinocchio_configuration(base_pos: np.ndarray, base_quat_wxyz: np.ndarray, q_joints: np.ndarray,
                             joint_map: JointMap) -> np.ndarray:
     """Pinocchio q from a base pose and joint positions in `JOINT_NAMES` order."""

@@ -10,7 +10,7 @@ from typing import Protocol
 
 import numpy as np
 
-from mbc.alip_state import yaw_rotation
+from mbc.alip_state import yaw_of_quaternion, yaw_rotation
 from mbc.errors import ConfigError
 from mbc.sim import DigitSim
 from mbc.types import Command, JointCommand, RobotState
@@ -72,12 +72,12 @@ class Episode:
 
     def heading_velocity(self) -> np.ndarray:
         """(n, 2) base velocity in the heading frame (forward, lateral) [m/s]."""
-        velocities = []
-        for quat, velocity in zip(self.base_quat, self.base_linvel):
-            w, x, y, z = quat
-            yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-            velocities.append((yaw_rotation(yaw).T @ velocity)[:2])
-        return np.array(velocities)
+        return np.array([(yaw_rotation(yaw).T @ velocity)[:2]
+                         for yaw, velocity in zip(self.yaw(), self.base_linvel)])
+
+    def yaw(self) -> np.ndarray:
+        """(n,) unwrapped base yaw [rad]."""
+        return np.unwrap(yaw_of_quaternion(self.arrays("base_quat")))
 
     def mean_velocity(self, since_s: float = 0.0) -> np.ndarray:
         """Mean heading-frame (vx, vy) and yaw rate after `since_s`, from displacements."""
@@ -86,8 +86,7 @@ class Episode:
         if keep.sum() < 2:
             return np.full(3, np.nan)
         heading = self.heading_velocity()[keep].mean(axis=0)
-        yaw = np.unwrap([np.arctan2(2 * (q[0] * q[3] + q[1] * q[2]), 1 - 2 * (q[2] ** 2 + q[3] ** 2))
-                         for q in self.arrays("base_quat")[keep]])
+        yaw = self.yaw()[keep]
         return np.r_[heading, (yaw[-1] - yaw[0]) / (t[keep][-1] - t[keep][0])]
 
     def summary(self, since_s: float = 2.0) -> dict[str, float]:

@@ -48,9 +48,7 @@ def velocity_tracking(episode: Episode, path: Path) -> Path:
     t = episode.arrays("time")
     command = episode.arrays("command")
     velocity = episode.heading_velocity()
-    quat = episode.arrays("base_quat")
-    yaw = np.unwrap(np.arctan2(2 * (quat[:, 0] * quat[:, 3] + quat[:, 1] * quat[:, 2]),
-                               1 - 2 * (quat[:, 2] ** 2 + quat[:, 3] ** 2)))
+    yaw = episode.yaw()
     window = max(1, int(0.7 / max(np.median(np.diff(t)), 1e-6)))  # two steps
     kernel = np.ones(window) / window
     fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
