@@ -47,10 +47,11 @@ def _finite(name: str, value) -> np.ndarray | float:
     return array
 
 
-def _durations(name: str, value) -> np.ndarray | float:
+def _durations(name: str, value, allow_zero: bool = False) -> np.ndarray | float:
     checked = _finite(name, value)
-    if np.any(np.asarray(checked) <= 0):
-        raise ConfigError(f"{name} must be positive (a step duration), got {value}")
+    smallest = checked if isinstance(checked, float) else (checked.min() if checked.size else 1.0)
+    if smallest < 0 or (smallest == 0 and not allow_zero):
+        raise ConfigError(f"{name} must be {'>= 0' if allow_zero else 'positive'} (a duration), got {value}")
     return checked
 
 
@@ -77,10 +78,7 @@ class AlipModel:
         All arguments broadcast against each other.
         """
         x, L, u = _finite("x", x), _finite("L", L), _finite("u_ankle", u_ankle)
-        t = _finite("t", t)
-        if np.any(np.asarray(t) < 0):
-            raise ConfigError(f"t must be >= 0, got {t}")
-        wt = self.omega * t
+        wt = self.omega * _durations("t", t, allow_zero=True)
         ch, sh = np.cosh(wt), np.sinh(wt)
         shift = u / (self.mass * self.gravity)
         x_shifted = x + shift

@@ -19,6 +19,7 @@ last good targets and is counted in the diagnostics.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -28,9 +29,10 @@ import numpy as np
 
 from mbc.alip import AlipModel
 from mbc.alip_mpc import AlipMpc, AlipMpcConfig
-from mbc.alip_state import AlipState, alip_state, yaw_of_quaternion
+from mbc.alip_state import AlipState, alip_state
 from mbc.assumptions import AssumptionReport, saturation
 from mbc.errors import ConfigError
+from mbc.geometry import wrap_angle, yaw_of_quaternion, yaw_of_rotation
 from mbc.ik import IkConfig, IkTargets, WholeBodyIK
 from mbc.passivity import PassivityConfig, PassivityQp
 from mbc.pin_robot import PinRobot
@@ -49,10 +51,11 @@ class CommandLimits:
     yaw_rate_radps: tuple[float, float] = (-0.8, 0.8)
 
     def clip(self, command: Command) -> tuple[np.ndarray, bool]:
-        raw = command.as_array()
-        bounds = np.array([self.vx_mps, self.vy_mps, self.yaw_rate_radps])
-        clipped = np.clip(raw, bounds[:, 0], bounds[:, 1])
-        return clipped, bool(np.any(clipped != raw))
+        """The command clipped to the limits as (3,) [vx, vy, yaw_rate], and whether it was clipped."""
+        raw = (command.vx, command.vy, command.yaw_rate)
+        clipped = [min(max(value, low), high) for value, (low, high)
+                   in zip(raw, (self.vx_mps, self.vy_mps, self.yaw_rate_radps))]
+        return np.array(clipped), clipped != list(raw)
 
 
 @dataclass(frozen=True)
@@ -133,14 +136,6 @@ class ControllerDiagnostics:
     """Wall time of the parts: 'alip', 'ik', 'qp', 'total' [s]."""
 
 
-def _yaw_of(rotation: np.ndarray) -> float:
-    return float(np.arctan2(rotation[1, 0], rotation[0, 0]))
-
-
-def _wrap(angle: float) -> float:
-    return float((angle + np.pi) % (2 * np.pi) - np.pi)
-
-
 class AlipController:
     """ALIP walking controller for Digit; implements the `Controller` protocol at 200 Hz."""
 
@@ -158,6 +153,9 @@ class AlipController:
             min_step_width_m=cfg.min_step_width_m, max_step_width_m=cfg.max_step_width_m)) \
             if cfg.foot_placement == "mpc" else None
         self._kp, self._kd = np.asarray(cfg.kp, float), np.asarray(cfg.kd, float)
+        T = cfg.timing.step_duration_s  # the gait's step-end targets are linear in the command:
+        self._end_velocity_per_mean = self.alip.end_velocity_for_mean(1.0, T)
+        self._lateral_gait_momentum = self.alip.lateral_end_momentum(-1, cfg.step_width_m, T)
         self._last_q_des = c.Q_STAND.copy()
         self.fallback_count = 0
         self.last_diagnostics: ControllerDiagnostics | None = None
@@ -226,24 +224,25 @@ class AlipController:
         foot_step, time_left = self._foot_step(alip, command, stance)
         if self.mpc is not None:
             clock.set_step_duration(clock.time_in_step_s + time_left)
-        rotation = np.array([[np.cos(heading), -np.sin(heading)], [np.sin(heading), np.cos(heading)]])
+        cos_heading, sin_heading = math.cos(heading), math.sin(heading)
+        offset = np.array([cos_heading * foot_step[0] - sin_heading * foot_step[1],
+                           sin_heading * foot_step[0] + cos_heading * foot_step[1]])  # heading -> world
         ground_normal = self._ground_normal(robot.sole_rotation(stance))
-        offset = rotation @ foot_step
         landing_height = -(ground_normal[:2] @ offset) / ground_normal[2]  # on the stance foot's plane
-        target = np.r_[stance_sole[:2] + offset, stance_sole[2] + landing_height]
+        target = np.array([stance_sole[0] + offset[0], stance_sole[1] + offset[1], stance_sole[2] + landing_height])
         swing_sole = robot.sole_position(swing)
         phase = clock.phase
         phase_step = self.dt / clock.step_duration_s
         swing_position, swing_velocity = swing_reference(swing_sole, target, phase, phase_step,
                                                          clock.step_duration_s, cfg.swing)
-        stance_yaw = _yaw_of(robot.sole_rotation(stance))
-        swing_yaw_now = _yaw_of(robot.sole_rotation(swing))
-        turn = np.clip(command[2] * T, -cfg.max_turn_per_step_rad, cfg.max_turn_per_step_rad)
+        stance_yaw = yaw_of_rotation(robot.sole_rotation(stance))
+        swing_yaw_now = yaw_of_rotation(robot.sole_rotation(swing))
+        turn = min(max(command[2] * T, -cfg.max_turn_per_step_rad), cfg.max_turn_per_step_rad)
         swing_yaw = stance_yaw + turn  # the landing yaw: the light foot turns early in the swing
         targets = IkTargets(
             stance=stance, swing_position=swing_position, swing_velocity=swing_velocity, swing_yaw=swing_yaw,
             ground_normal=ground_normal,
-            pelvis_yaw=stance_yaw + 0.5 * _wrap(swing_yaw_now - stance_yaw), com_height=stance_sole[2] + cfg.com_height_m,
+            pelvis_yaw=stance_yaw + 0.5 * wrap_angle(swing_yaw_now - stance_yaw), com_height=stance_sole[2] + cfg.com_height_m,
             pelvis_xy=state.base_pos[:2], pelvis_xy_velocity=state.base_linvel[:2])
         t_alip = time.perf_counter()
         ik = self.ik.solve(robot.q, targets)
@@ -271,8 +270,8 @@ class AlipController:
             com_height_error_m=float(alip.com_height - cfg.com_height_m),
             com_vertical_velocity_mps=float(alip.com_velocity[2]),
             com_vertical_acceleration_mps2=float(com_acceleration[2]),
-            stance_slip_speed_mps=float(np.linalg.norm(robot.sole_velocity(stance)[:2])),
-            centroidal_angular_momentum=float(np.linalg.norm(robot.centroidal_angular_momentum)),
+            stance_slip_speed_mps=math.hypot(*robot.sole_velocity(stance)[:2].tolist()),
+            centroidal_angular_momentum=math.hypot(*robot.centroidal_angular_momentum.tolist()),
             qp_solved=True, torque_saturation=saturation(tau, c.TORQUE_LIMIT_NM))
         end = time.perf_counter()
         self.last_diagnostics = ControllerDiagnostics(
@@ -288,13 +287,13 @@ class AlipController:
 
         Tilts below the deadband read as flat; larger ones are clipped to the largest slope."""
         normal = stance_sole_rotation[:, 2]
-        tilt = float(np.arccos(np.clip(normal[2], -1.0, 1.0)))
+        tilt = math.acos(min(max(normal[2], -1.0), 1.0))
         if tilt < self.config.ground_tilt_deadband_rad:
             return np.array([0.0, 0.0, 1.0])
         if tilt > self.config.max_ground_tilt_rad:
-            horizontal = normal[:2] / np.linalg.norm(normal[:2])
             limit = self.config.max_ground_tilt_rad
-            return np.r_[np.sin(limit) * horizontal, np.cos(limit)]
+            scale = math.sin(limit) / math.hypot(normal[0], normal[1])
+            return np.array([scale * normal[0], scale * normal[1], math.cos(limit)])
         return normal
 
     def _foot_step(self, alip: AlipState, command: np.ndarray, stance: int) -> tuple[np.ndarray, float]:
@@ -302,21 +301,21 @@ class AlipController:
         cfg, model, clock = self.config, self.alip, self.clock
         T = cfg.timing.step_duration_s
         next_stance_sign = 1 if stance == RIGHT else -1  # the swing foot becomes the stance foot
-        L_des = np.array([model.mz * model.end_velocity_for_mean(command[0], T),
-                          model.lateral_end_momentum(next_stance_sign, cfg.step_width_m, T, command[1])])
+        # step-end momenta of the periodic gait for the command (`AlipModel.lateral_end_momentum`)
+        L_mean = model.mz * self._end_velocity_per_mean * command[:2]
+        L_des = L_mean - [0.0, next_stance_sign * self._lateral_gait_momentum]
         swing_side = 1.0 if stance == RIGHT else -1.0  # the swing foot lands to the left (+1) or right (-1)
         if self.mpc is not None:
-            n = self.mpc.config.horizon_steps
-            sequence = np.array([[L_des[0], model.lateral_end_momentum(next_stance_sign * (-1) ** k, cfg.step_width_m, T,
-                                                                       command[1])] for k in range(n)])
+            signs = next_stance_sign * (-1.0) ** np.arange(self.mpc.config.horizon_steps)
+            sequence = np.c_[np.full(len(signs), L_mean[0]), L_mean[1] - signs * self._lateral_gait_momentum]
             solution = self.mpc.solve(alip.x, alip.L, clock.time_in_step_s, -int(swing_side), sequence)
             step, time_left = solution.steps_m[0], solution.time_left_s
         else:
             time_left = clock.time_to_touchdown_s
             x_end, L_end = model.propagate(alip.x, alip.L, time_left)
             step = x_end + model.foot_placement(L_end, L_des / model.mz, T)
-        step = np.array([np.clip(step[0], -cfg.max_step_length_m, cfg.max_step_length_m),
-                         swing_side * np.clip(swing_side * step[1], cfg.min_step_width_m, cfg.max_step_width_m)])
+        step = np.array([min(max(step[0], -cfg.max_step_length_m), cfg.max_step_length_m),
+                         swing_side * min(max(swing_side * step[1], cfg.min_step_width_m), cfg.max_step_width_m)])
         return step, time_left
 
     # --- failures -------------------------------------------------------------------------------------
@@ -324,11 +323,13 @@ class AlipController:
     @staticmethod
     def _plausible_state(state: RobotState) -> bool:
         """Finite, a usable quaternion, and speeds a walking robot can have (10x the motors' limits)."""
-        arrays = (state.base_pos, state.base_quat, state.base_linvel, state.base_angvel, state.q, state.qd)
-        if not (np.isfinite(state.time) and np.isfinite(np.concatenate(arrays)).all()):
+        squares = [float(array @ array) for array in (state.base_pos, state.base_quat, state.base_linvel,
+                                                      state.base_angvel, state.q, state.qd)]
+        if not (math.isfinite(state.time) and math.isfinite(math.fsum(squares))):  # NaN or inf anywhere
             return False
-        return bool(np.linalg.norm(state.base_quat) > 1e-6 and np.all(np.abs(state.qd) < 10 * c.SPEED_LIMIT_RADPS)
-                    and np.linalg.norm(state.base_linvel) < 20.0 and np.linalg.norm(state.base_angvel) < 50.0)
+        _, quat, linvel, angvel, _, _ = squares
+        return bool(quat > 1e-12 and linvel < 20.0**2 and angvel < 50.0**2
+                    and (np.abs(state.qd) < 10 * c.SPEED_LIMIT_RADPS).all())
 
     def _fallback(self, state: RobotState, command: np.ndarray, clipped: bool, start: float, reason: str,
                   qp_iterations: int = 0) -> JointCommand:

@@ -14,13 +14,14 @@ by one control period along their velocities.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 import placo
 
-from mbc.alip_state import yaw_rotation
 from mbc.errors import ConfigError
+from mbc.geometry import cross3, yaw_rotation
 from mbc.robot import JointMap
 from robots.digit import constants as c
 from robots.digit.urdf import URDF_PATH
@@ -80,11 +81,11 @@ class IkResult:
 
 def _pose(position: np.ndarray, yaw: float, normal: np.ndarray) -> np.ndarray:
     """Pose with z along `normal` and x along the heading `yaw` projected onto that plane."""
-    heading = yaw_rotation(yaw)[:, 0]
+    heading = np.array([math.cos(yaw), math.sin(yaw), 0.0])
     x = heading - (heading @ normal) * normal
-    x /= np.linalg.norm(x)
+    x /= math.sqrt(x @ x)
     pose = np.eye(4)
-    pose[:3, :3] = np.c_[x, np.cross(normal, x), normal]
+    pose[:3, 0], pose[:3, 1], pose[:3, 2] = x, cross3(normal, x), normal
     pose[:3, 3] = position
     return pose
 
@@ -123,14 +124,18 @@ class WholeBodyIK:
         self._sole_tasks[1 - stance].configure("swing", "soft", self.config.swing_weight, self.config.swing_weight)
         self._stance = stance
 
-    def _set_targets(self, targets: IkTargets, stance_pose: np.ndarray, ahead_s: float) -> None:
-        swing = self._sole_tasks[1 - targets.stance]
-        swing.T_world_frame = _pose(targets.swing_position + ahead_s * targets.swing_velocity, targets.swing_yaw,
-                                    targets.ground_normal)
+    def _set_fixed_targets(self, targets: IkTargets, stance_pose: np.ndarray) -> None:
+        """The targets that do not move within the tick: stance foot, pelvis orientation, CoM height."""
         self._sole_tasks[targets.stance].T_world_frame = stance_pose
         self._pelvis_orientation.R_world_frame = yaw_rotation(targets.pelvis_yaw)
-        self._pelvis_xy.target_world = np.r_[targets.pelvis_xy + ahead_s * targets.pelvis_xy_velocity, 0.0]
         self._com.target_world = np.array([0.0, 0.0, targets.com_height])
+
+    def _set_moving_targets(self, targets: IkTargets, ahead_s: float) -> None:
+        """Swing sole and pelvis position, `ahead_s` along their velocities."""
+        self._sole_tasks[1 - targets.stance].T_world_frame = _pose(
+            targets.swing_position + ahead_s * targets.swing_velocity, targets.swing_yaw, targets.ground_normal)
+        pelvis_xy = targets.pelvis_xy + ahead_s * targets.pelvis_xy_velocity
+        self._pelvis_xy.target_world = np.array([pelvis_xy[0], pelvis_xy[1], 0.0])
 
     def solve(self, q_measured: np.ndarray, targets: IkTargets) -> IkResult:
         """IK from the measured pinocchio configuration `q_measured` toward `targets`."""
@@ -139,21 +144,21 @@ class WholeBodyIK:
         robot.update_kinematics()
         self._configure_stance(targets.stance)
         stance_name = c.SOLE_FRAMES[targets.stance]
-        stance_pose = robot.get_T_world_frame(stance_name)
-        self._set_targets(targets, stance_pose, 0.0)
+        self._set_fixed_targets(targets, robot.get_T_world_frame(stance_name))
+        self._set_moving_targets(targets, 0.0)
         for _ in range(self.config.iterations):
             self.solver.solve(True)
             robot.update_kinematics()
         q_now = robot.state.q.copy()
-        swing_error = float(np.linalg.norm(robot.get_T_world_frame(c.SOLE_FRAMES[1 - targets.stance])[:3, 3]
-                                           - targets.swing_position))
+        swing_offset = robot.get_T_world_frame(c.SOLE_FRAMES[1 - targets.stance])[:3, 3] - targets.swing_position
+        swing_error = math.sqrt(swing_offset @ swing_offset)
         com_error = float(robot.com_world()[2] - targets.com_height)
-        self._set_targets(targets, stance_pose, self.dt)
+        self._set_moving_targets(targets, self.dt)
         self.solver.solve(True)
         q_ahead = robot.state.q
         q_des = q_now[self.joint_map.q]
         qd_des = (q_ahead[self.joint_map.q] - q_des) / self.dt
         tol = self.config.convergence_tolerance_m
-        converged = bool(swing_error < tol and abs(com_error) < tol and np.isfinite(q_des).all())
+        converged = bool(swing_error < tol and abs(com_error) < tol and math.isfinite(q_des.sum()))
         return IkResult(q_des=q_des, qd_des=qd_des, converged=converged, swing_error_m=swing_error,
                         com_height_error_m=com_error)

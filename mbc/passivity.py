@@ -1,14 +1,25 @@
 r"""Passivity-based inverse dynamics as a QP (proxsuite), with pinocchio dynamics.
 
-Decision vector x = [a (18), f (8 x 3), tau (12)]: generalized acceleration, a force at each of
-the 4 sole corners of both feet (world axes), joint torques. With the measured (q, v):
+Decision vector x = [a (18), f (n_c x 4 x 3)]: generalized acceleration and a force at each of the
+4 sole corners of the n_c feet in contact (world axes). A swinging foot has no force variables,
+and the joint torques are not variables either: the actuated rows of the dynamics give them as
+an affine function of x,
 
-    M a + h = S^T tau + sum_i J_i^T f_i                    (floating-base dynamics, h = C v + g)
+    tau = (M a + h - J_c^T f)_joints = T x + t0,          (h = C v + g)
+
+so the QP keeps only what the torques cannot absorb:
+
+    (M a + h - J_c^T f)_base = 0                            (6 rows: the unactuated floating base)
     |f_t| <= mu f_n componentwise, f_n >= 0 (sole frame)     (friction pyramid; corners: CoP in the foot)
-    f = 0 on a swinging foot;   |tau| <= tau_max
+    -tau_max <= T x + t0 <= tau_max
 
     min  |a_j - a_r|^2 + w_c sum_stance |J_foot a + Jdot_foot v + k_c v_foot|^2
          + w_b |a_b|^2 + w_f |f|^2 + w_tau |tau|^2
+
+This is the problem with explicit torques and zero swing forces, with those variables substituted
+out: 30 variables in single support, 42 in double (54 before), which matters because proxsuite
+refactorizes the KKT system whenever a matrix changes, every tick. One solver per contact count
+is kept, each warm-started from its own last solution.
 
 The stance-foot condition (no acceleration, slip velocity damped) is a heavily weighted cost rather
 than an equality: with hard contact rows, touchdown impacts together with the friction cone and the
@@ -27,6 +38,7 @@ obeys M s' + C s + K_D s = 0, passive since M' - 2C is skew-symmetric.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,11 +51,19 @@ from robots.digit import constants as c
 
 NV = 6 + c.NUM_JOINTS
 NUM_CORNERS = 4
-NF = 2 * NUM_CORNERS * 3
-N_VARS = NV + NF + c.NUM_JOINTS
-N_EQ = NV
-N_IN = 2 * NUM_CORNERS * 5 + c.NUM_JOINTS
-A_SLICE, F_SLICE, TAU_SLICE = slice(0, NV), slice(NV, NV + NF), slice(NV + NF, N_VARS)
+FORCES_PER_FOOT = 3 * NUM_CORNERS
+PYRAMID_ROWS = 5
+A_SLICE = slice(0, NV)
+"""The generalized acceleration in the decision vector; the corner forces follow it."""
+_SOLVED = proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
+
+
+def num_variables(feet_in_contact: int) -> int:
+    return NV + FORCES_PER_FOOT * feet_in_contact
+
+
+def num_inequalities(feet_in_contact: int) -> int:
+    return PYRAMID_ROWS * NUM_CORNERS * feet_in_contact + c.NUM_JOINTS
 
 
 @dataclass(frozen=True)
@@ -70,7 +90,7 @@ class PassivityConfig:
     eps_abs: float = 1e-4
     """Absolute accuracy of the QP solution (forces in N, torques in N m)."""
     max_iterations: int = 200
-    """Cap on proxsuite's outer and inner iterations (walking solves take ~5-50)."""
+    """Cap on proxsuite's outer and inner iterations (walking solves take ~1-20)."""
 
     def __post_init__(self) -> None:
         if not self.friction > 0:
@@ -81,7 +101,7 @@ class PassivityConfig:
 
 @dataclass
 class QpProblem:
-    """proxsuite's dense form: min x'Hx/2 + g'x, A x = b, l <= C x <= u."""
+    """proxsuite's dense form, min x'Hx/2 + g'x, A x = b, l <= C x <= u, and the torque map."""
 
     H: np.ndarray
     g: np.ndarray
@@ -90,6 +110,17 @@ class QpProblem:
     C: np.ndarray
     l: np.ndarray  # noqa: E741 (proxsuite's name)
     u: np.ndarray
+    feet: tuple[int, ...]
+    """The feet in contact (0 left, 1 right), in the order of their force variables."""
+    torque_map: np.ndarray
+    """(12, n) T: joint torques tau = T x + t0 [N m]."""
+    torque_offset: np.ndarray
+    """(12,) t0 = h_joints."""
+
+    def residual(self, x: np.ndarray) -> float:
+        """Largest equality or inequality violation at x."""
+        Cx = self.C @ x
+        return max(float(np.max(np.abs(self.A @ x - self.b))), float(np.max(np.maximum(Cx - self.u, self.l - Cx))))
 
 
 @dataclass(frozen=True)
@@ -100,11 +131,11 @@ class QpResult:
     acceleration: np.ndarray
     """(18,) generalized acceleration of the QP (pinocchio v-space)."""
     forces: np.ndarray
-    """(8, 3) corner forces, left foot corners first, world axes [N]."""
+    """(8, 3) corner forces, left foot corners first, world axes; zero on a foot not in contact [N]."""
+    decision: np.ndarray
+    """(n,) the QP's solution x."""
     solved: bool
     iterations: int
-    residual: float
-    """Largest equality/inequality violation of the returned solution."""
 
 
 def sole_corners() -> np.ndarray:
@@ -113,8 +144,36 @@ def sole_corners() -> np.ndarray:
     return np.array([[sx * half_x, sy * half_y, 0.0] for sx in (1, -1) for sy in (1, -1)])
 
 
-def _skew(r: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+# [r]x = [[0, -z, y], [z, 0, -x], [-y, x, 0]]: (row, column, component of r, sign) of its entries
+_SKEW_ENTRIES = np.array([(0, 1, 2, -1), (0, 2, 1, 1), (1, 0, 2, 1), (1, 2, 0, -1), (2, 0, 1, -1), (2, 1, 0, 1)])
+_CORNER = np.repeat(np.arange(NUM_CORNERS), len(_SKEW_ENTRIES))
+_ROW, _COLUMN, _COMPONENT, _SIGN = (np.tile(column, NUM_CORNERS) for column in _SKEW_ENTRIES.T)
+_COLUMN = _COLUMN + 3 * _CORNER
+_FORCE_SUM = np.tile(np.eye(3), NUM_CORNERS)
+
+
+def corner_wrench_map(levers: np.ndarray) -> np.ndarray:
+    """(6, 12) G: the wrench [f; tau] about a foot's sole origin of forces at its 4 corners, world axes.
+
+    levers: (4, 3) corners minus the sole origin, world axes; G = [I ... I; [r_1]x ... [r_4]x].
+    With the sole Jacobian J (LOCAL_WORLD_ALIGNED), the generalized force of the corner forces
+    is J^T G f.
+    """
+    G = np.zeros((6, 3 * NUM_CORNERS))
+    G[:3] = _FORCE_SUM
+    G[3 + _ROW, _COLUMN] = _SIGN * levers[_CORNER, _COMPONENT]
+    return G
+
+
+@dataclass(frozen=True)
+class _Template:
+    """The parts of the QP that depend only on which feet are in contact."""
+
+    H: np.ndarray
+    C: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    joint_weights: np.ndarray
 
 
 class PassivityQp:
@@ -124,95 +183,109 @@ class PassivityQp:
         self.config = cfg = config or PassivityConfig()
         self._corners = sole_corners()
         self._damping = np.tile(np.asarray(cfg.damping, dtype=float), 2)
-        self._qp = proxsuite.proxqp.dense.QP(N_VARS, N_EQ, N_IN)
-        self._qp.settings.eps_abs = cfg.eps_abs
-        self._qp.settings.eps_rel = 0.0
-        self._qp.settings.max_iter = cfg.max_iterations  # a non-converged solve is a failure, not a stall
-        self._qp.settings.max_iter_in = cfg.max_iterations
-        self._qp.settings.verbose = False
-        self._qp.settings.eps_primal_inf = 1e-12  # the QP is always feasible; avoid false certificates
-        self._qp.settings.eps_dual_inf = 1e-12
-        self._initialized = False
+        mu = cfg.friction
+        self._pyramid = np.array([[1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu], [0, 0, -1.0]])
+        self._templates = {feet: self._template(feet) for feet in ((0,), (1,), (0, 1))}
+        self._solvers = {n: self._new_solver(n) for n in (1, 2)}
+        self._initialized = {1: False, 2: False}
+
+    def _template(self, feet: tuple[int, ...]) -> _Template:
+        cfg = self.config
+        n, rows = num_variables(len(feet)), num_inequalities(len(feet))
+        joint_weights = np.full(c.NUM_JOINTS, cfg.joint_weight)
+        if len(feet) == 1:  # the single-support pivot: a nearly passive stance ankle
+            joint_weights[feet[0] * 6 + 4: feet[0] * 6 + 6] *= cfg.stance_ankle_weight
+        H = np.diag(np.r_[np.full(NV, cfg.base_weight), np.full(n - NV, cfg.force_weight)])  # joints: per tick
+        lower, upper = np.full(rows, -np.inf), np.zeros(rows)  # pyramid rows: C f <= 0
+        return _Template(H=H, C=np.zeros((rows, n)), lower=lower, upper=upper, joint_weights=joint_weights)
+
+    def _new_solver(self, feet_in_contact: int) -> proxsuite.proxqp.dense.QP:
+        cfg = self.config
+        qp = proxsuite.proxqp.dense.QP(num_variables(feet_in_contact), 6, num_inequalities(feet_in_contact))
+        qp.settings.eps_abs = cfg.eps_abs
+        qp.settings.eps_rel = 0.0
+        qp.settings.max_iter = cfg.max_iterations  # a non-converged solve is a failure, not a stall
+        qp.settings.max_iter_in = cfg.max_iterations
+        qp.settings.verbose = False
+        qp.settings.eps_primal_inf = 1e-12  # the QP is always feasible; avoid false certificates
+        qp.settings.eps_dual_inf = 1e-12
+        qp.settings.initial_guess = proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+        return qp
 
     def build(self, robot: PinRobot, contact: np.ndarray, q_des: np.ndarray, qd_des: np.ndarray,
               qdd_des: np.ndarray) -> tuple[QpProblem, np.ndarray]:
-        """The QP for the robot's current (q, v) (call `robot.update` first) and the sliding variable s (12,)."""
+        """The QP for the robot's current (q, v) and the sliding variable s (12,).
+
+        Call `robot.update(state)` first (it leaves the kinematics and the frame accelerations at
+        zero generalized acceleration, which this reads); at least one foot must be in contact.
+        """
         cfg = self.config
+        feet = (0, 1) if contact[0] and contact[1] else (0,) if contact[0] else (1,) if contact[1] else ()
+        if not feet:
+            raise ValueError("the passivity QP needs at least one foot in contact")
+        template = self._templates[feet]
         model, data = robot.model, robot.data
         q, v = robot.q, robot.v
         joints_q, joints_v = robot.joint_map.q, robot.joint_map.v
-        pin.computeAllTerms(model, data, q, v)
-        M, h = data.M, data.nle
-        pin.forwardKinematics(model, data, q, v, np.zeros(model.nv))
+        M = pin.crba(model, data, q)
+        h = pin.nonLinearEffects(model, data, q, v)
+        pin.computeJointJacobians(model, data)  # from the placements of robot.update
         sliding = v[joints_v] - qd_des - cfg.sliding_gain * (q_des - q[joints_q])
         a_ref = qdd_des + cfg.sliding_gain * (qd_des - v[joints_v])
 
-        H = np.zeros((N_VARS, N_VARS))
-        g = np.zeros(N_VARS)
-        base = np.arange(6)
-        H[base, base] = cfg.base_weight
-        weights = np.full(c.NUM_JOINTS, cfg.joint_weight)
-        for side in range(2):
-            if contact[side] and not contact[1 - side]:
-                weights[side * 6 + 4: side * 6 + 6] *= cfg.stance_ankle_weight
-        diagonal = np.arange(model.nv)[joints_v]
-        H[diagonal, diagonal] = weights
-        g[joints_v] = -weights * a_ref
-        H[F_SLICE, F_SLICE] = cfg.force_weight * np.eye(NF)
-        H[TAU_SLICE, TAU_SLICE] = cfg.torque_weight * np.eye(c.NUM_JOINTS)
-
-        A = np.zeros((N_EQ, N_VARS))
-        b = np.zeros(N_EQ)
-        A[:NV, A_SLICE] = M
-        A[joints_v, TAU_SLICE] = -np.eye(c.NUM_JOINTS)
-        b[:NV] = -h
-
-        C = np.zeros((N_IN, N_VARS))
-        lower = np.full(N_IN, -np.inf)
-        upper = np.zeros(N_IN)
-        mu = cfg.friction
-        pyramid = np.array([[1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu], [0, 0, -1.0]])
-        for side in range(2):
+        H, C = template.H.copy(), template.C.copy()
+        g = np.zeros(len(H))
+        joint_diagonal = np.arange(NV)[joints_v]
+        H[joint_diagonal, joint_diagonal] = template.joint_weights
+        g[joints_v] = -template.joint_weights * a_ref
+        dynamics = np.empty((NV, len(H)))  # M a - J_c^T f; the dynamics are dynamics @ x + h = S^T tau
+        dynamics[:, :NV] = M
+        for k, side in enumerate(feet):
             frame = robot.sole_ids[side]
             jacobian = pin.getFrameJacobian(model, data, frame, pin.LOCAL_WORLD_ALIGNED)
             rotation = data.oMf[frame].rotation
-            for k, corner in enumerate(self._corners):
-                column = NV + 3 * (NUM_CORNERS * side + k)
-                lever = rotation @ corner
-                corner_jacobian = jacobian[:3] - _skew(lever) @ jacobian[3:]
-                A[:NV, column:column + 3] = -corner_jacobian.T
-                row = 5 * (NUM_CORNERS * side + k)
-                C[row:row + 5, column:column + 3] = pyramid @ rotation.T  # sole-frame components
-                if not contact[side]:
-                    lower[row + 4] = 0.0  # -f_n in [0, 0]: no force on a swinging foot
-            if contact[side]:
-                drift = pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL_WORLD_ALIGNED).vector
-                velocity = pin.getFrameVelocity(model, data, frame, pin.LOCAL_WORLD_ALIGNED).vector
-                H[A_SLICE, A_SLICE] += cfg.contact_weight * jacobian.T @ jacobian
-                g[A_SLICE] += cfg.contact_weight * jacobian.T @ (drift + cfg.contact_damping * velocity)
-        torque_rows = slice(2 * NUM_CORNERS * 5, N_IN)
-        C[torque_rows, TAU_SLICE] = np.eye(c.NUM_JOINTS)
-        lower[torque_rows], upper[torque_rows] = -c.TORQUE_LIMIT_NM, c.TORQUE_LIMIT_NM
-        return QpProblem(H, g, A, b, C, lower, upper), sliding
+            column = NV + FORCES_PER_FOOT * k
+            dynamics[:, column:column + FORCES_PER_FOOT] = -jacobian.T @ corner_wrench_map(self._corners @ rotation.T)
+            pyramid = self._pyramid @ rotation.T  # rows act on the sole-frame components
+            for corner in range(NUM_CORNERS):
+                row = PYRAMID_ROWS * (NUM_CORNERS * k + corner)
+                C[row:row + PYRAMID_ROWS, column + 3 * corner:column + 3 * corner + 3] = pyramid
+            drift = pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL_WORLD_ALIGNED).vector
+            velocity = pin.getFrameVelocity(model, data, frame, pin.LOCAL_WORLD_ALIGNED).vector
+            weighted = cfg.contact_weight * jacobian.T
+            H[:NV, :NV] += weighted @ jacobian
+            g[:NV] += weighted @ (drift + cfg.contact_damping * velocity)
+
+        torque_map, torque_offset = dynamics[joints_v], h[joints_v]
+        H += cfg.torque_weight * torque_map.T @ torque_map
+        g += cfg.torque_weight * torque_map.T @ torque_offset
+        C[-c.NUM_JOINTS:] = torque_map
+        lower, upper = template.lower.copy(), template.upper.copy()
+        lower[-c.NUM_JOINTS:] = -c.TORQUE_LIMIT_NM - torque_offset
+        upper[-c.NUM_JOINTS:] = c.TORQUE_LIMIT_NM - torque_offset
+        problem = QpProblem(H=H, g=g, A=dynamics[:6].copy(), b=-h[:6], C=C, l=lower, u=upper, feet=feet,
+                            torque_map=torque_map, torque_offset=torque_offset)
+        return problem, sliding
 
     def solve(self, robot: PinRobot, problem: QpProblem, sliding: np.ndarray) -> QpResult:
         """Solve (warm-started) and add the passivity terms to the QP torque."""
-        qp = self._qp
-        if not self._initialized:
-            qp.settings.initial_guess = proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+        qp = self._solvers[len(problem.feet)]
+        if not self._initialized[len(problem.feet)]:
             qp.init(problem.H, problem.g, problem.A, problem.b, problem.C, problem.l, problem.u)
-            self._initialized = True
+            self._initialized[len(problem.feet)] = True
         else:
             qp.update(H=problem.H, g=problem.g, A=problem.A, b=problem.b, C=problem.C, l=problem.l, u=problem.u)
         qp.solve()
-        x = qp.results.x
-        solved = qp.results.info.status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED and bool(np.isfinite(x).all())
-        residual = max(float(np.max(np.abs(problem.A @ x - problem.b))),
-                       float(np.max(np.maximum(problem.C @ x - problem.u, problem.l - problem.C @ x))))
-        tau_qp = x[TAU_SLICE].copy()
+        results = qp.results
+        x = results.x
+        solved = results.info.status == _SOLVED and math.isfinite(x @ x)
+        tau_qp = problem.torque_map @ x + problem.torque_offset
         joints_v = robot.joint_map.v
-        coriolis = pin.computeCoriolisMatrix(robot.model, robot.data, robot.q, robot.v)
-        tau = tau_qp - coriolis[joints_v, joints_v] @ sliding - self._damping * sliding
-        tau = np.clip(tau, -c.TORQUE_LIMIT_NM, c.TORQUE_LIMIT_NM)
-        return QpResult(tau=tau, tau_qp=tau_qp, acceleration=x[A_SLICE].copy(), forces=x[F_SLICE].reshape(8, 3).copy(),
-                        solved=solved, iterations=int(qp.results.info.iter), residual=residual)
+        coriolis = pin.computeCoriolisMatrix(robot.model, robot.data, robot.q, robot.v)[joints_v][:, joints_v]
+        tau = tau_qp - coriolis @ sliding - self._damping * sliding
+        tau = np.minimum(np.maximum(tau, -c.TORQUE_LIMIT_NM), c.TORQUE_LIMIT_NM)
+        forces = np.zeros((2, FORCES_PER_FOOT))
+        for k, side in enumerate(problem.feet):
+            forces[side] = x[NV + FORCES_PER_FOOT * k: NV + FORCES_PER_FOOT * (k + 1)]
+        return QpResult(tau=tau, tau_qp=tau_qp, acceleration=x[A_SLICE].copy(), forces=forces.reshape(8, 3),
+                        decision=x, solved=solved, iterations=int(results.info.iter))

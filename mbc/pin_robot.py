@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from mbc.geometry import cross3
 from mbc.robot import JointMap, load_pinocchio, pinocchio_configuration, pinocchio_velocity
 from mbc.types import RobotState
 from robots.digit import constants as c
@@ -21,12 +22,16 @@ class PinRobot:
         self.sole_ids = tuple(self.model.getFrameId(name) for name in c.SOLE_FRAMES)
         self.q = pin.neutral(self.model)
         self.v = np.zeros(self.model.nv)
+        self._zero_acceleration = np.zeros(self.model.nv)
 
     def update(self, state: RobotState) -> None:
-        """Forward kinematics, CoM, centroidal momentum and frame placements for `state`."""
+        """Forward kinematics, CoM, centroidal momentum and frame placements for `state`.
+
+        Second-order kinematics at zero generalized acceleration, so frame accelerations read now
+        are the drift terms Jdot v."""
         self.q = pinocchio_configuration(state.base_pos, state.base_quat, state.q, self.joint_map)
         self.v = pinocchio_velocity(state.base_quat, state.base_linvel, state.base_angvel, state.qd, self.joint_map)
-        pin.forwardKinematics(self.model, self.data, self.q, self.v)
+        pin.forwardKinematics(self.model, self.data, self.q, self.v, self._zero_acceleration)
         pin.updateFramePlacements(self.model, self.data)
         pin.computeCentroidalMomentum(self.model, self.data)  # also the CoM, data.com[0]
 
@@ -41,7 +46,9 @@ class PinRobot:
         return self.data.hg.linear / self.mass
 
     def com_acceleration(self, acceleration: np.ndarray) -> np.ndarray:
-        """(3,) CoM acceleration for generalized acceleration `acceleration` at the current (q, v) [m/s^2]."""
+        """(3,) CoM acceleration for generalized acceleration `acceleration` at the current (q, v) [m/s^2].
+
+        Leaves the frame accelerations at `acceleration` (no longer the drift terms)."""
         pin.centerOfMass(self.model, self.data, self.q, self.v, acceleration, False)
         return self.data.acom[0].copy()
 
@@ -59,7 +66,7 @@ class PinRobot:
     def angular_momentum_about(self, point_world: np.ndarray) -> np.ndarray:
         """(3,) angular momentum about a fixed world point: L_com + (c - p) x m v_com [kg m^2/s]."""
         hg = self.data.hg
-        return hg.angular + np.cross(self.data.com[0] - point_world, hg.linear)
+        return hg.angular + cross3(self.data.com[0] - point_world, hg.linear)
 
     @property
     def centroidal_angular_momentum(self) -> np.ndarray:

@@ -10,8 +10,8 @@ from typing import Protocol
 
 import numpy as np
 
-from mbc.alip_state import yaw_of_quaternion, yaw_rotation
 from mbc.errors import ConfigError
+from mbc.geometry import yaw_of_quaternion, yaw_rotation
 from mbc.sim import DigitSim
 from mbc.types import Command, JointCommand, RobotState
 

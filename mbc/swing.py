@@ -23,9 +23,9 @@ from mbc.errors import ConfigError
 
 
 def min_jerk(s):
-    """Minimum-jerk blend b(s) on [0, 1] (clipped outside), and its derivative db/ds."""
-    s = np.clip(s, 0.0, 1.0)
-    return 10 * s**3 - 15 * s**4 + 6 * s**5, 30 * s**2 - 60 * s**3 + 30 * s**4
+    """Minimum-jerk blend b(s) on [0, 1] (clipped outside), and its derivative db/ds (s: float or array)."""
+    s = min(max(s, 0.0), 1.0) if isinstance(s, float) else np.clip(s, 0.0, 1.0)
+    return s**3 * (10 - 15 * s + 6 * s**2), 30 * s**2 * (1 - 2 * s + s**2)
 
 
 @dataclass(frozen=True)
@@ -89,8 +89,10 @@ def swing_reference(p_measured: np.ndarray, p_target: np.ndarray, phase: float, 
     else:
         fraction, velocity_xy = 1.0, np.zeros(2)
     height, velocity_z = _vertical(phase + phase_step, cfg, duration_s)
-    position = np.r_[p_measured[:2] + fraction * horizontal, p_target[2] + cfg.landing_offset_m + height]
-    return position, np.r_[velocity_xy, velocity_z]
+    position = np.empty(3)
+    position[:2] = p_measured[:2] + fraction * horizontal
+    position[2] = p_target[2] + cfg.landing_offset_m + height
+    return position, np.array([velocity_xy[0], velocity_xy[1], velocity_z])
 
 
 def estimate_phase(height_m: float, vertical_velocity_mps: float, cfg: SwingConfig) -> float:
