@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from mbc.geometry import yaw_rotation
 from mbc.pin_robot import PinRobot
 
 
@@ -25,9 +25,19 @@ class AlipState:
 
 
 def alip_state(robot: PinRobot, contact_point_world: np.ndarray, yaw: float) -> AlipState:
-    """The ALIP state of `robot` (already `update`d) about `contact_point_world`, heading `yaw`."""
-    to_heading = yaw_rotation(yaw).T
-    relative = to_heading @ (robot.com - contact_point_world)
-    momentum = to_heading @ robot.angular_momentum_about(contact_point_world)
-    return AlipState(x=relative[:2], L=np.array([momentum[1], -momentum[0]]), com_height=float(relative[2]),
-                     com_velocity=to_heading @ robot.com_velocity)
+    """The ALIP state of `robot` (already `update`d) about `contact_point_world`, heading `yaw`.
+
+    With r = c - p and the centroidal momentum (h_lin, h_ang): L_p = h_ang + r x h_lin, both
+    rotated by -yaw into the heading frame (scalar maths: this runs every control tick).
+    """
+    cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
+    rx, ry, rz = (robot.data.com[0] - contact_point_world).tolist()
+    lx, ly, lz = robot.data.hg.linear.tolist()
+    ax, ay, _ = robot.data.hg.angular.tolist()
+    Lx, Ly = ax + ry * lz - rz * ly, ay + rz * lx - rx * lz  # about p, world axes
+    mass = robot.mass
+    return AlipState(
+        x=np.array([cos_yaw * rx + sin_yaw * ry, -sin_yaw * rx + cos_yaw * ry]),
+        L=np.array([-sin_yaw * Lx + cos_yaw * Ly, -(cos_yaw * Lx + sin_yaw * Ly)]),
+        com_height=rz,
+        com_velocity=np.array([cos_yaw * lx + sin_yaw * ly, -sin_yaw * lx + cos_yaw * ly, lz]) / mass)

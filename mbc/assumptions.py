@@ -56,4 +56,4 @@ class AssumptionReport:
 
 def saturation(tau: np.ndarray, limit: np.ndarray, tolerance: float = 1e-6) -> float:
     """Fraction of joints whose |torque| is at the limit."""
-    return float(np.mean(np.abs(tau) >= limit - tolerance))
+    return np.count_nonzero(np.abs(tau) >= limit - tolerance) / len(tau)

@@ -168,7 +168,7 @@ def pinocchio_configuration(base_pos: np.ndarray, base_quat_wxyz: np.ndarray, q_
 def pinocchio_velocity(base_quat_wxyz: np.ndarray, v_world_base: np.ndarray, w_world_base: np.ndarray,
                        qd_joints: np.ndarray, joint_map: JointMap) -> np.ndarray:
     """Pinocchio v (base twist in the base frame) from world-frame base velocities."""
-    rotation = pin.Quaternion(*np.asarray(base_quat_wxyz)).toRotationMatrix()  # w, x, y, z
+    rotation = pin.Quaternion(*np.asarray(base_quat_wxyz, dtype=float).tolist()).toRotationMatrix()  # w, x, y, z
     v = np.empty(6 + c.NUM_JOINTS)
     v[:3] = rotation.T @ v_world_base
     v[3:6] = rotation.T @ w_world_base

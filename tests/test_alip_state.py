@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from mbc.alip_state import alip_state
+from mbc.geometry import yaw_rotation
 from mbc.pin_robot import PinRobot
 from mbc.sim import DigitSim
 from mbc.types import JointCommand
@@ -58,3 +59,19 @@ def test_heading_frame_rotates_with_yaw(robot):
     np.testing.assert_allclose(alip.x, [0.1, 0.0], atol=1e-12)  # CoM ahead of the contact
     assert alip.L[0] == pytest.approx(c.TOTAL_MASS_KG * robot.com[2] * 0.5)
     assert alip.L[1] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_alip_state_is_the_heading_frame_view_of_the_momentum_about_the_contact(robot, rng):
+    """x, L, z' in the heading frame against the world-frame quantities rotated by a matrix."""
+    state = DigitSim().reset()
+    state.base_linvel, state.base_angvel, state.qd = rng.normal(size=3), rng.normal(size=3), rng.normal(size=12)
+    robot.update(state)
+    for _ in range(5):
+        yaw, point = rng.uniform(-np.pi, np.pi), rng.normal(size=3) * 0.3
+        to_heading = yaw_rotation(yaw).T
+        alip = alip_state(robot, point, yaw)
+        momentum = to_heading @ robot.angular_momentum_about(point)
+        np.testing.assert_allclose(alip.x, (to_heading @ (robot.com - point))[:2], atol=1e-12)
+        np.testing.assert_allclose(alip.L, [momentum[1], -momentum[0]], atol=1e-10)
+        np.testing.assert_allclose(alip.com_velocity, to_heading @ robot.com_velocity, atol=1e-12)
+        assert alip.com_height == pytest.approx(robot.com[2] - point[2], abs=1e-12)
