@@ -88,8 +88,8 @@ class AlipModel:
 
     def transition_matrix(self, t: float) -> np.ndarray:
         """(2, 2) A(t) with [x, L](t) = A(t) [x, L](0) for zero ankle torque."""
-        wt = self.omega * float(_durations("t", t))
-        ch, sh = np.cosh(wt), np.sinh(wt)
+        wt = self.omega * float(_durations("t", t, allow_zero=True))
+        ch, sh = math.cosh(wt), math.sinh(wt)
         return np.array([[ch, sh / (self.mz * self.omega)], [self.mz * self.omega * sh, ch]])
 
     def step_to_step(self, T: float) -> tuple[np.ndarray, np.ndarray]:

@@ -153,6 +153,7 @@ class AlipController:
             min_step_width_m=cfg.min_step_width_m, max_step_width_m=cfg.max_step_width_m)) \
             if cfg.foot_placement == "mpc" else None
         self._kp, self._kd = np.asarray(cfg.kp, float), np.asarray(cfg.kd, float)
+        self._gravity_z = float(self.robot.model.gravity.linear[2])  # -9.81 m/s^2
         T = cfg.timing.step_duration_s  # the gait's step-end targets are linear in the command:
         self._end_velocity_per_mean = self.alip.end_velocity_for_mean(1.0, T)
         self._lateral_gait_momentum = self.alip.lateral_end_momentum(-1, cfg.step_width_m, T)
@@ -265,11 +266,12 @@ class AlipController:
         else:
             joint_command = JointCommand(q_des=state.q.copy(), qd_des=state.qd.copy(), tau_ff=tau)
         self._last_q_des = ik.q_des
-        com_acceleration = robot.com_acceleration(result.acceleration)
+        # Newton for the whole body (the QP satisfies the floating-base rows): m c'' = sum f + m g
+        com_vertical_acceleration = result.forces[:, 2].sum() / robot.mass + self._gravity_z
         report = AssumptionReport(
             com_height_error_m=float(alip.com_height - cfg.com_height_m),
             com_vertical_velocity_mps=float(alip.com_velocity[2]),
-            com_vertical_acceleration_mps2=float(com_acceleration[2]),
+            com_vertical_acceleration_mps2=float(com_vertical_acceleration),
             stance_slip_speed_mps=math.hypot(*robot.sole_velocity(stance)[:2].tolist()),
             centroidal_angular_momentum=math.hypot(*robot.centroidal_angular_momentum.tolist()),
             qp_solved=True, torque_saturation=saturation(tau, c.TORQUE_LIMIT_NM))
@@ -312,7 +314,7 @@ class AlipController:
             step, time_left = solution.steps_m[0], solution.time_left_s
         else:
             time_left = clock.time_to_touchdown_s
-            x_end, L_end = model.propagate(alip.x, alip.L, time_left)
+            x_end, L_end = model.transition_matrix(time_left) @ np.array([alip.x, alip.L])  # rows: x, L per axis
             step = x_end + model.foot_placement(L_end, L_des / model.mz, T)
         step = np.array([min(max(step[0], -cfg.max_step_length_m), cfg.max_step_length_m),
                          swing_side * min(max(swing_side * step[1], cfg.min_step_width_m), cfg.max_step_width_m)])

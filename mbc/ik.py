@@ -21,7 +21,7 @@ import numpy as np
 import placo
 
 from mbc.errors import ConfigError
-from mbc.geometry import cross3, yaw_rotation
+from mbc.geometry import yaw_rotation
 from mbc.robot import JointMap
 from robots.digit import constants as c
 from robots.digit.urdf import URDF_PATH
@@ -82,13 +82,15 @@ class IkResult:
 
 def _pose(position: np.ndarray, yaw: float, normal: np.ndarray) -> np.ndarray:
     """Pose with z along `normal` and x along the heading `yaw` projected onto that plane."""
-    heading = np.array([math.cos(yaw), math.sin(yaw), 0.0])
-    x = heading - (heading @ normal) * normal
-    x /= math.sqrt(x @ x)
-    pose = np.zeros((4, 4))
-    pose[:3, 0], pose[:3, 1], pose[:3, 2] = x, cross3(normal, x), normal
-    pose[:3, 3], pose[3, 3] = position, 1.0
-    return pose
+    nx, ny, nz = normal.tolist()
+    hx, hy = math.cos(yaw), math.sin(yaw)
+    along = hx * nx + hy * ny
+    xx, xy, xz = hx - along * nx, hy - along * ny, -along * nz  # heading minus its normal part
+    norm = math.sqrt(xx * xx + xy * xy + xz * xz)
+    xx, xy, xz = xx / norm, xy / norm, xz / norm
+    yx, yy, yz = ny * xz - nz * xy, nz * xx - nx * xz, nx * xy - ny * xx  # y = z x x
+    px, py, pz = position.tolist()
+    return np.array([[xx, yx, nx, px], [xy, yy, ny, py], [xz, yz, nz, pz], [0.0, 0.0, 0.0, 1.0]])
 
 
 class WholeBodyIK:

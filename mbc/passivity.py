@@ -165,6 +165,18 @@ def corner_wrench_map(levers: np.ndarray) -> np.ndarray:
     return G
 
 
+_PYRAMID_ENTRY = np.tile(np.arange(PYRAMID_ROWS * 3), NUM_CORNERS)
+
+
+def _pyramid_block(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, columns) in C of the friction-pyramid entries of the k-th foot in contact, row-major per
+    corner (block-diagonal: the same 5 x 3 pyramid for each of its corners)."""
+    corner, row, column = np.meshgrid(np.arange(NUM_CORNERS), np.arange(PYRAMID_ROWS), np.arange(3), indexing="ij")
+    rows = PYRAMID_ROWS * (NUM_CORNERS * k + corner) + row
+    columns = NV + FORCES_PER_FOOT * k + 3 * corner + column
+    return rows.ravel(), columns.ravel()
+
+
 @dataclass(frozen=True)
 class _Template:
     """The parts of the QP that depend only on which feet are in contact."""
@@ -186,6 +198,7 @@ class PassivityQp:
         mu = cfg.friction
         self._pyramid = np.array([[1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu], [0, 0, -1.0]])
         self._templates = {feet: self._template(feet) for feet in ((0,), (1,), (0, 1))}
+        self._pyramid_blocks = [_pyramid_block(k) for k in (0, 1)]
         self._solvers = {n: self._new_solver(n) for n in (1, 2)}
         self._initialized = {1: False, 2: False}
 
@@ -247,9 +260,7 @@ class PassivityQp:
             column = NV + FORCES_PER_FOOT * k
             dynamics[:, column:column + FORCES_PER_FOOT] = -jacobian.T @ corner_wrench_map(self._corners @ rotation.T)
             pyramid = self._pyramid @ rotation.T  # rows act on the sole-frame components
-            for corner in range(NUM_CORNERS):
-                row = PYRAMID_ROWS * (NUM_CORNERS * k + corner)
-                C[row:row + PYRAMID_ROWS, column + 3 * corner:column + 3 * corner + 3] = pyramid
+            C[self._pyramid_blocks[k]] = pyramid.ravel()[_PYRAMID_ENTRY]
             drift = pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL_WORLD_ALIGNED).vector
             velocity = pin.getFrameVelocity(model, data, frame, pin.LOCAL_WORLD_ALIGNED).vector
             weighted = cfg.contact_weight * jacobian.T

@@ -45,13 +45,6 @@ class PinRobot:
         """(3,) whole-body CoM velocity, world [m/s]: linear momentum / mass."""
         return self.data.hg.linear / self.mass
 
-    def com_acceleration(self, acceleration: np.ndarray) -> np.ndarray:
-        """(3,) CoM acceleration for generalized acceleration `acceleration` at the current (q, v) [m/s^2].
-
-        Leaves the frame accelerations at `acceleration` (no longer the drift terms)."""
-        pin.centerOfMass(self.model, self.data, self.q, self.v, acceleration, False)
-        return self.data.acom[0].copy()
-
     def sole_position(self, side: int) -> np.ndarray:
         """(3,) sole frame origin of foot `side` (0 left, 1 right), world [m]."""
         return self.data.oMf[self.sole_ids[side]].translation.copy()

@@ -47,6 +47,8 @@ def test_step_to_step_matrices_match_propagation(rng):
     A, B = model.step_to_step(0.35)
     s, step = np.array([0.1, 12.0]), 0.3
     np.testing.assert_allclose(A @ s + B * step, model.propagate(s[0] - step, s[1], 0.35), rtol=1e-12)
+    for t in (0.0, 0.17):  # the transition matrix over any t >= 0, zero included (a late step: no time left)
+        np.testing.assert_allclose(model.transition_matrix(t) @ s, model.propagate(s[0], s[1], t), rtol=1e-12)
 
 
 @pytest.mark.parametrize("v_des", [-0.3, 0.0, 0.5, 1.2])

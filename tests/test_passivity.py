@@ -104,3 +104,32 @@ def test_swing_foot_carries_no_force_and_cones_and_limits_hold(standing):
 def test_no_foot_in_contact_is_an_error(standing):
     with pytest.raises(ValueError, match="at least one foot"):
         PassivityQp().build(standing, np.array([False, False]), standing.q[7:], np.zeros(12), np.zeros(12))
+
+
+@pytest.mark.parametrize("contact", [(True, True), (True, False)])
+def test_com_acceleration_of_the_solution_is_newtons_law(moving, contact):
+    """The controller reads the CoM acceleration off the QP forces: m c'' = sum f + m g must hold for a(x)."""
+    qp = PassivityQp()
+    problem, sliding = qp.build(moving, np.array(contact), moving.q[7:], np.zeros(12), np.zeros(12))
+    result = qp.solve(moving, problem, sliding)
+    assert result.solved
+    pin.centerOfMass(moving.model, moving.data, moving.q, moving.v, result.acceleration)
+    newton = result.forces.sum(axis=0) / moving.mass + moving.model.gravity.linear
+    np.testing.assert_allclose(moving.data.acom[0], newton, atol=1e-3)
+    assert np.abs(result.forces).sum() > 10  # the feet do carry load
+
+
+@pytest.mark.parametrize("contact", [(True, True), (False, True)])
+def test_friction_rows_are_the_pyramid_of_each_corner_in_its_sole_frame(moving, rng, contact):
+    qp = PassivityQp()
+    problem, _ = qp.build(moving, np.array(contact), moving.q[7:], np.zeros(12), np.zeros(12))
+    x = rng.normal(size=problem.H.shape[0])
+    rows = problem.C[:-12] @ x
+    mu = qp.config.friction
+    for k, side in enumerate(problem.feet):
+        rotation = moving.data.oMf[moving.sole_ids[side]].rotation
+        for corner in range(4):
+            fx, fy, fz = rotation.T @ x[NV + 12 * k + 3 * corner: NV + 12 * k + 3 * corner + 3]
+            expected = [fx - mu * fz, -fx - mu * fz, fy - mu * fz, -fy - mu * fz, -fz]
+            np.testing.assert_allclose(rows[20 * k + 5 * corner: 20 * k + 5 * corner + 5], expected, atol=1e-12)
+    assert np.all(problem.u[:-12] == 0) and np.all(problem.l[:-12] == -np.inf)
