@@ -154,6 +154,7 @@ class AlipController:
             if cfg.foot_placement == "mpc" else None
         self._kp, self._kd = np.asarray(cfg.kp, float), np.asarray(cfg.kd, float)
         self._gravity_z = float(self.robot.model.gravity.linear[2])  # -9.81 m/s^2
+        self._zero_joint_acceleration = np.zeros(c.NUM_JOINTS)  # qdd_des: the IK gives positions and velocities
         T = cfg.timing.step_duration_s  # the gait's step-end targets are linear in the command:
         self._end_velocity_per_mean = self.alip.end_velocity_for_mean(1.0, T)
         self._lateral_gait_momentum = self.alip.lateral_end_momentum(-1, cfg.step_width_m, T)
@@ -228,7 +229,8 @@ class AlipController:
         cos_heading, sin_heading = math.cos(heading), math.sin(heading)
         offset = np.array([cos_heading * foot_step[0] - sin_heading * foot_step[1],
                            sin_heading * foot_step[0] + cos_heading * foot_step[1]])  # heading -> world
-        ground_normal = self._ground_normal(robot.sole_rotation(stance))
+        stance_rotation = robot.sole_rotation(stance)
+        ground_normal = self._ground_normal(stance_rotation)
         landing_height = -(ground_normal[:2] @ offset) / ground_normal[2]  # on the stance foot's plane
         target = np.array([stance_sole[0] + offset[0], stance_sole[1] + offset[1], stance_sole[2] + landing_height])
         swing_sole = robot.sole_position(swing)
@@ -236,7 +238,7 @@ class AlipController:
         phase_step = self.dt / clock.step_duration_s
         swing_position, swing_velocity = swing_reference(swing_sole, target, phase, phase_step,
                                                          clock.step_duration_s, cfg.swing)
-        stance_yaw = yaw_of_rotation(robot.sole_rotation(stance))
+        stance_yaw = yaw_of_rotation(stance_rotation)
         swing_yaw_now = yaw_of_rotation(robot.sole_rotation(swing))
         turn = min(max(command[2] * T, -cfg.max_turn_per_step_rad), cfg.max_turn_per_step_rad)
         swing_yaw = stance_yaw + turn  # the landing yaw: the light foot turns early in the swing
@@ -253,7 +255,7 @@ class AlipController:
         contact = np.zeros(2, dtype=bool)
         contact[stance] = True
         contact[swing] = bool(state.contact[swing]) and phase < 0.1  # double support just after touchdown
-        problem, sliding = self.qp.build(robot, contact, ik.q_des, ik.qd_des, np.zeros(c.NUM_JOINTS))
+        problem, sliding = self.qp.build(robot, contact, ik.q_des, ik.qd_des, self._zero_joint_acceleration)
         result = self.qp.solve(robot, problem, sliding)
         t_qp = time.perf_counter()
         if not result.solved:
