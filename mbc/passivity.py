@@ -147,7 +147,7 @@ def sole_corners() -> np.ndarray:
 # [r]x = [[0, -z, y], [z, 0, -x], [-y, x, 0]]: (row, column, component of r, sign) of its entries
 _SKEW_ENTRIES = np.array([(0, 1, 2, -1), (0, 2, 1, 1), (1, 0, 2, 1), (1, 2, 0, -1), (2, 0, 1, -1), (2, 1, 0, 1)])
 _CORNER = np.repeat(np.arange(NUM_CORNERS), len(_SKEW_ENTRIES))
-_ROW, _COLUMN, _COMPONENT, _SIGN = (np.tile(column, NUM_CORNERS) for column in _SKEW_ENTRIES.T)
+_ROW, _COLUMN, _COMPONENT, _SIGN = (np.tile(entries, NUM_CORNERS) for entries in _SKEW_ENTRIES.T)
 _COLUMN = _COLUMN + 3 * _CORNER
 _FORCE_SUM = np.tile(np.eye(3), NUM_CORNERS)
 
