@@ -28,6 +28,15 @@ def test_walks_forward_and_tracks_velocity(controller):
     assert sum(d.touchdown for d in episode.diagnostics) >= 8  # it steps, rather than leaning
 
 
+def test_mpc_foot_placement_walks():
+    """The MPC option (placements and step durations over a 3-step horizon) in the loop: short walk."""
+    controller = AlipController.for_digit(foot_placement="mpc")
+    episode = run_episode(DigitSim(seed=0), controller, Command(0.3, 0.0, 0.0), 3.0)
+    assert not episode.fell and controller.fallback_count == 0
+    assert episode.summary(since_s=1.5)["mean_vx_mps"] > 0.15  # forward, if slower than commanded (known limit)
+    assert sum(d.touchdown for d in episode.diagnostics) >= 6
+
+
 def test_survives_a_lateral_push_mid_stance(controller):
     episode = run_episode(DigitSim(seed=1), controller, Command(0.2, 0.0, 0.0), 4.0,
                           pushes=[Push(time_s=1.6, force_n=(0.0, 100.0, 0.0), duration_s=0.2)])
