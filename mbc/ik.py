@@ -33,7 +33,8 @@ class IkConfig:
 
     iterations: int = 1
     """IK steps per tick toward the targets (each a small QP). The IK starts from the measured
-    configuration every tick; a second step changed walking velocities by under 0.003 m/s."""
+    configuration every tick; a second step changed the mean walking velocities by at most 0.01 m/s
+    (11 commands, 2 seeds); on 2 cm bumps 27 of 30 runs stayed up with one step, 28 with two."""
     swing_weight: float = 10.0
     pelvis_orientation_weight: float = 10.0
     com_height_weight: float = 10.0
