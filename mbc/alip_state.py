@@ -27,17 +27,15 @@ class AlipState:
 def alip_state(robot: PinRobot, contact_point_world: np.ndarray, yaw: float) -> AlipState:
     """The ALIP state of `robot` (already `update`d) about `contact_point_world`, heading `yaw`.
 
-    With r = c - p and the centroidal momentum (h_lin, h_ang): L_p = h_ang + r x h_lin, both
-    rotated by -yaw into the heading frame (scalar maths: this runs every control tick).
+    CoM offset, angular momentum about the point and CoM velocity, rotated by -yaw into the
+    heading frame (scalar maths: this runs every control tick).
     """
     cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
     rx, ry, rz = (robot.data.com[0] - contact_point_world).tolist()
-    lx, ly, lz = robot.data.hg.linear.tolist()
-    ax, ay, _ = robot.data.hg.angular.tolist()
-    Lx, Ly = ax + ry * lz - rz * ly, ay + rz * lx - rx * lz  # about p, world axes
-    mass = robot.mass
+    Lx, Ly, _ = robot.angular_momentum_about(contact_point_world).tolist()
+    vx, vy, vz = robot.com_velocity.tolist()
     return AlipState(
         x=np.array([cos_yaw * rx + sin_yaw * ry, -sin_yaw * rx + cos_yaw * ry]),
         L=np.array([-sin_yaw * Lx + cos_yaw * Ly, -(cos_yaw * Lx + sin_yaw * Ly)]),
         com_height=rz,
-        com_velocity=np.array([cos_yaw * lx + sin_yaw * ly, -sin_yaw * lx + cos_yaw * ly, lz]) / mass)
+        com_velocity=np.array([cos_yaw * vx + sin_yaw * vy, -sin_yaw * vx + cos_yaw * vy, vz]))

@@ -21,11 +21,9 @@ def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def yaw_of_quaternion(quat_wxyz: np.ndarray) -> np.ndarray | float:
     """Yaw [rad] of orientation(s) given as w x y z quaternions, shape (4,) or (n, 4)."""
     quat = np.asarray(quat_wxyz, dtype=float)
-    if quat.ndim == 1:
-        w, x, y, z = quat.tolist()
-        return math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-    w, x, y, z = np.moveaxis(quat, -1, 0)
-    return np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    single = quat.ndim == 1  # one orientation: Python floats, as the control loop wants
+    w, x, y, z = quat.tolist() if single else np.moveaxis(quat, -1, 0)
+    return (math.atan2 if single else np.arctan2)(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
 def yaw_of_rotation(rotation: np.ndarray) -> float:
