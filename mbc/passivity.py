@@ -1,15 +1,16 @@
 r"""Passivity-based inverse dynamics as a QP (proxsuite), with pinocchio dynamics.
 
 Decision vector x = [a (18), f (n_c x 4 x 3)]: generalized acceleration and a force at each of the
-4 sole corners of the n_c feet in contact (world axes). A swinging foot has no force variables,
-and the joint torques are not variables either: the actuated rows of the dynamics give them as
-an affine function of x,
+4 sole corners of the n_c feet in contact, in that sole's frame (so the friction pyramid rows are
+constant). A swinging foot has no force variables, and the joint torques are not variables either:
+the actuated rows of the dynamics give them as an affine function of x,
 
-    tau = (M a + h - J_c^T f)_joints = T x + t0,          (h = C v + g)
+    tau = (M a + h - sum_feet J_sole^T G f_foot)_joints = T x + t0,          (h = C v + g)
 
-so the QP keeps only what the torques cannot absorb:
+with J_sole the sole frame's LOCAL Jacobian and G (6 x 12, constant) the wrench about the sole
+origin of the corner forces. The QP keeps only what the torques cannot absorb:
 
-    (M a + h - J_c^T f)_base = 0                            (6 rows: the unactuated floating base)
+    (M a + h - J_c^T G f)_base = 0                           (6 rows: the unactuated floating base)
     |f_t| <= mu f_n componentwise, f_n >= 0 (sole frame)     (friction pyramid; corners: CoP in the foot)
     -tau_max <= T x + t0 <= tau_max
 
@@ -19,7 +20,9 @@ so the QP keeps only what the torques cannot absorb:
 This is the problem with explicit torques and zero swing forces, with those variables substituted
 out: 30 variables in single support, 42 in double (54 before), which matters because proxsuite
 refactorizes the KKT system whenever a matrix changes, every tick. One solver per contact count
-is kept, each warm-started from its own last solution.
+is kept, each warm-started from its own last solution, without Ruiz equilibration: the problem
+is in acceleration and force units already, and equilibrating it cost 40% of the solve time while
+the walking solves take ~1 iteration either way.
 
 The stance-foot condition (no acceleration, slip velocity damped) is a heavily weighted cost rather
 than an equality: with hard contact rows, touchdown impacts together with the friction cone and the
@@ -112,6 +115,8 @@ class QpProblem:
     u: np.ndarray
     feet: tuple[int, ...]
     """The feet in contact (0 left, 1 right), in the order of their force variables."""
+    sole_rotations: tuple[np.ndarray, ...]
+    """(3, 3) world rotation of each sole in `feet`: its corner forces are in that frame."""
     torque_map: np.ndarray
     """(12, n) T: joint torques tau = T x + t0 [N m]."""
     torque_offset: np.ndarray
@@ -121,6 +126,13 @@ class QpProblem:
         """Largest equality or inequality violation at x."""
         Cx = self.C @ x
         return max(float(np.max(np.abs(self.A @ x - self.b))), float(np.max(np.maximum(Cx - self.u, self.l - Cx))))
+
+    def corner_forces_world(self, x: np.ndarray) -> np.ndarray:
+        """(8, 3) corner forces of x in world axes, left foot corners first; zero on a swinging foot [N]."""
+        forces = np.zeros((2, NUM_CORNERS, 3))
+        for k, (side, rotation) in enumerate(zip(self.feet, self.sole_rotations)):
+            forces[side] = x[NV + FORCES_PER_FOOT * k: NV + FORCES_PER_FOOT * (k + 1)].reshape(NUM_CORNERS, 3) @ rotation.T
+        return forces.reshape(2 * NUM_CORNERS, 3)
 
 
 @dataclass(frozen=True)
@@ -133,7 +145,7 @@ class QpResult:
     forces: np.ndarray
     """(8, 3) corner forces, left foot corners first, world axes; zero on a foot not in contact [N]."""
     decision: np.ndarray
-    """(n,) the QP's solution x."""
+    """(n,) the QP's solution x (corner forces in their sole frames)."""
     solved: bool
     iterations: int
 
@@ -144,37 +156,18 @@ def sole_corners() -> np.ndarray:
     return np.array([[sx * half_x, sy * half_y, 0.0] for sx in (1, -1) for sy in (1, -1)])
 
 
-# [r]x = [[0, -z, y], [z, 0, -x], [-y, x, 0]]: (row, column, component of r, sign) of its entries
-_SKEW_ENTRIES = np.array([(0, 1, 2, -1), (0, 2, 1, 1), (1, 0, 2, 1), (1, 2, 0, -1), (2, 0, 1, -1), (2, 1, 0, 1)])
-_CORNER = np.repeat(np.arange(NUM_CORNERS), len(_SKEW_ENTRIES))
-_ROW, _COLUMN, _COMPONENT, _SIGN = (np.tile(entries, NUM_CORNERS) for entries in _SKEW_ENTRIES.T)
-_COLUMN = _COLUMN + 3 * _CORNER
-_FORCE_SUM = np.tile(np.eye(3), NUM_CORNERS)
-
-
 def corner_wrench_map(levers: np.ndarray) -> np.ndarray:
-    """(6, 12) G: the wrench [f; tau] about a foot's sole origin of forces at its 4 corners, world axes.
+    """(6, 12) G = [I ... I; [r_1]x ... [r_4]x]: the wrench [f; tau] about a point of forces at 4 levers.
 
-    levers: (4, 3) corners minus the sole origin, world axes; G = [I ... I; [r_1]x ... [r_4]x].
-    With the sole Jacobian J (LOCAL_WORLD_ALIGNED), the generalized force of the corner forces
-    is J^T G f.
+    levers: (4, 3) the force points minus the reference point. For the sole corners in the sole
+    frame G is constant, and with the sole's LOCAL Jacobian J the generalized force of the corner
+    forces (sole-frame components) is J^T G f.
     """
     G = np.zeros((6, 3 * NUM_CORNERS))
-    G[:3] = _FORCE_SUM
-    G[3 + _ROW, _COLUMN] = _SIGN * levers[_CORNER, _COMPONENT]
+    for corner, (x, y, z) in enumerate(levers):
+        G[:3, 3 * corner: 3 * corner + 3] = np.eye(3)
+        G[3:, 3 * corner: 3 * corner + 3] = [[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]]
     return G
-
-
-_PYRAMID_ENTRY = np.tile(np.arange(PYRAMID_ROWS * 3), NUM_CORNERS)
-
-
-def _pyramid_block(k: int) -> tuple[np.ndarray, np.ndarray]:
-    """(rows, columns) in C of the friction-pyramid entries of the k-th foot in contact, row-major per
-    corner (block-diagonal: the same 5 x 3 pyramid for each of its corners)."""
-    corner, row, column = np.meshgrid(np.arange(NUM_CORNERS), np.arange(PYRAMID_ROWS), np.arange(3), indexing="ij")
-    rows = PYRAMID_ROWS * (NUM_CORNERS * k + corner) + row
-    columns = NV + FORCES_PER_FOOT * k + 3 * corner + column
-    return rows.ravel(), columns.ravel()
 
 
 @dataclass(frozen=True)
@@ -182,10 +175,13 @@ class _Template:
     """The parts of the QP that depend only on which feet are in contact."""
 
     H: np.ndarray
+    """Base, joint-tracking and force weights on the diagonal."""
     C: np.ndarray
+    """Friction-pyramid rows filled in (the torque rows are per tick)."""
     lower: np.ndarray
     upper: np.ndarray
-    joint_weights: np.ndarray
+    joint_gradient: np.ndarray
+    """(12,) -joint weights: the gradient of the tracking cost is this times a_r."""
 
 
 class PassivityQp:
@@ -193,24 +189,27 @@ class PassivityQp:
 
     def __init__(self, config: PassivityConfig | None = None) -> None:
         self.config = cfg = config or PassivityConfig()
-        self._corners = sole_corners()
         self._damping = np.tile(np.asarray(cfg.damping, dtype=float), 2)
-        mu = cfg.friction
-        self._pyramid = np.array([[1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu], [0, 0, -1.0]])
-        self._templates = {feet: self._template(feet) for feet in ((0,), (1,), (0, 1))}
-        self._pyramid_blocks = [_pyramid_block(k) for k in (0, 1)]
+        self._negative_wrench_map = -corner_wrench_map(sole_corners())
+        self._templates: dict[tuple[int, ...], _Template] = {}  # per contact set, built on first use
         self._solvers = {n: self._new_solver(n) for n in (1, 2)}
         self._initialized = {1: False, 2: False}
 
-    def _template(self, feet: tuple[int, ...]) -> _Template:
+    def _template(self, feet: tuple[int, ...], joints_v: slice | np.ndarray) -> _Template:
         cfg = self.config
         n, rows = num_variables(len(feet)), num_inequalities(len(feet))
         joint_weights = np.full(c.NUM_JOINTS, cfg.joint_weight)
         if len(feet) == 1:  # the single-support pivot: a nearly passive stance ankle
             joint_weights[feet[0] * 6 + 4: feet[0] * 6 + 6] *= cfg.stance_ankle_weight
-        H = np.diag(np.r_[np.full(NV, cfg.base_weight), np.full(n - NV, cfg.force_weight)])  # joints: per tick
+        diagonal = np.r_[np.full(NV, cfg.base_weight), np.full(n - NV, cfg.force_weight)]
+        diagonal[joints_v] = joint_weights
+        mu = cfg.friction
+        pyramid = np.array([[1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu], [0, 0, -1.0]])  # on (f_x, f_y, f_z)
+        corners = NUM_CORNERS * len(feet)
+        C = np.zeros((rows, n))
+        C[:PYRAMID_ROWS * corners, NV:] = np.kron(np.eye(corners), pyramid)
         lower, upper = np.full(rows, -np.inf), np.zeros(rows)  # pyramid rows: C f <= 0
-        return _Template(H=H, C=np.zeros((rows, n)), lower=lower, upper=upper, joint_weights=joint_weights)
+        return _Template(H=np.diag(diagonal), C=C, lower=lower, upper=upper, joint_gradient=-joint_weights)
 
     def _new_solver(self, feet_in_contact: int) -> proxsuite.proxqp.dense.QP:
         cfg = self.config
@@ -236,56 +235,59 @@ class PassivityQp:
         feet = (0, 1) if contact[0] and contact[1] else (0,) if contact[0] else (1,) if contact[1] else ()
         if not feet:
             raise ValueError("the passivity QP needs at least one foot in contact")
-        template = self._templates[feet]
-        model, data = robot.model, robot.data
-        q, v = robot.q, robot.v
         joints_q, joints_v = robot.joint_map.q, robot.joint_map.v
+        template = self._templates.get(feet)
+        if template is None:
+            template = self._templates[feet] = self._template(feet, joints_v)
+        model, data, q, v = robot.model, robot.data, robot.q, robot.v
         M = pin.crba(model, data, q)
         h = pin.nonLinearEffects(model, data, q, v)
         pin.computeJointJacobians(model, data)  # from the placements of robot.update
-        sliding = v[joints_v] - qd_des - cfg.sliding_gain * (q_des - q[joints_q])
-        a_ref = qdd_des + cfg.sliding_gain * (qd_des - v[joints_v])
+        v_joints = v[joints_v]
+        sliding = v_joints - qd_des - cfg.sliding_gain * (q_des - q[joints_q])
+        a_ref = qdd_des + cfg.sliding_gain * (qd_des - v_joints)
 
-        H, C = template.H.copy(), template.C.copy()
+        H = template.H.copy()
         g = np.zeros(len(H))
-        joint_diagonal = np.arange(NV)[joints_v]
-        H[joint_diagonal, joint_diagonal] = template.joint_weights
-        g[joints_v] = -template.joint_weights * a_ref
-        dynamics = np.empty((NV, len(H)))  # M a - J_c^T f; the dynamics are dynamics @ x + h = S^T tau
+        g[joints_v] = template.joint_gradient * a_ref
+        dynamics = np.empty((NV, len(H)))  # M a - J_c^T G f; the dynamics are dynamics @ x + h = S^T tau
         dynamics[:, :NV] = M
+        rotations = []
         for k, side in enumerate(feet):
             frame = robot.sole_ids[side]
-            jacobian = pin.getFrameJacobian(model, data, frame, pin.LOCAL_WORLD_ALIGNED)
-            rotation = data.oMf[frame].rotation
-            column = NV + FORCES_PER_FOOT * k
-            dynamics[:, column:column + FORCES_PER_FOOT] = -jacobian.T @ corner_wrench_map(self._corners @ rotation.T)
-            pyramid = self._pyramid @ rotation.T  # rows act on the sole-frame components
-            C[self._pyramid_blocks[k]] = pyramid.ravel()[_PYRAMID_ENTRY]
-            drift = pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL_WORLD_ALIGNED).vector
-            velocity = pin.getFrameVelocity(model, data, frame, pin.LOCAL_WORLD_ALIGNED).vector
+            jacobian = pin.getFrameJacobian(model, data, frame, pin.LOCAL)
+            dynamics[:, NV + FORCES_PER_FOOT * k: NV + FORCES_PER_FOOT * (k + 1)] = jacobian.T @ self._negative_wrench_map
+            # |J a + Jdot v + k_c v|^2 in the sole's axes: the same norm as in world axes
+            drift = pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL).vector
+            velocity = pin.getFrameVelocity(model, data, frame, pin.LOCAL).vector
             weighted = cfg.contact_weight * jacobian.T
             H[:NV, :NV] += weighted @ jacobian
             g[:NV] += weighted @ (drift + cfg.contact_damping * velocity)
+            rotations.append(data.oMf[frame].rotation)
 
         torque_map, torque_offset = dynamics[joints_v], h[joints_v]
-        H += cfg.torque_weight * torque_map.T @ torque_map
-        g += cfg.torque_weight * torque_map.T @ torque_offset
+        weighted = cfg.torque_weight * torque_map.T
+        H += weighted @ torque_map
+        g += weighted @ torque_offset
+        C = template.C.copy()
         C[-c.NUM_JOINTS:] = torque_map
         lower, upper = template.lower.copy(), template.upper.copy()
         lower[-c.NUM_JOINTS:] = -c.TORQUE_LIMIT_NM - torque_offset
         upper[-c.NUM_JOINTS:] = c.TORQUE_LIMIT_NM - torque_offset
         problem = QpProblem(H=H, g=g, A=dynamics[:6].copy(), b=-h[:6], C=C, l=lower, u=upper, feet=feet,
-                            torque_map=torque_map, torque_offset=torque_offset)
+                            sole_rotations=tuple(rotations), torque_map=torque_map, torque_offset=torque_offset)
         return problem, sliding
 
     def solve(self, robot: PinRobot, problem: QpProblem, sliding: np.ndarray) -> QpResult:
         """Solve (warm-started) and add the passivity terms to the QP torque."""
-        qp = self._solvers[len(problem.feet)]
-        if not self._initialized[len(problem.feet)]:
-            qp.init(problem.H, problem.g, problem.A, problem.b, problem.C, problem.l, problem.u)
-            self._initialized[len(problem.feet)] = True
+        feet_in_contact = len(problem.feet)
+        qp = self._solvers[feet_in_contact]
+        if self._initialized[feet_in_contact]:
+            qp.update(problem.H, problem.g, problem.A, problem.b, problem.C, problem.l, problem.u)
         else:
-            qp.update(H=problem.H, g=problem.g, A=problem.A, b=problem.b, C=problem.C, l=problem.l, u=problem.u)
+            qp.init(problem.H, problem.g, problem.A, problem.b, problem.C, problem.l, problem.u,
+                    compute_preconditioner=False)
+            self._initialized[feet_in_contact] = True
         qp.solve()
         results = qp.results
         x = results.x
@@ -295,8 +297,5 @@ class PassivityQp:
         coriolis = pin.computeCoriolisMatrix(robot.model, robot.data, robot.q, robot.v)[joints_v][:, joints_v]
         tau = tau_qp - coriolis @ sliding - self._damping * sliding
         tau = np.minimum(np.maximum(tau, -c.TORQUE_LIMIT_NM), c.TORQUE_LIMIT_NM)
-        forces = np.zeros((2, FORCES_PER_FOOT))
-        for k, side in enumerate(problem.feet):
-            forces[side] = x[NV + FORCES_PER_FOOT * k: NV + FORCES_PER_FOOT * (k + 1)]
-        return QpResult(tau=tau, tau_qp=tau_qp, acceleration=x[A_SLICE].copy(), forces=forces.reshape(8, 3),
+        return QpResult(tau=tau, tau_qp=tau_qp, acceleration=x[A_SLICE].copy(), forces=problem.corner_forces_world(x),
                         decision=x, solved=solved, iterations=int(results.info.iter))

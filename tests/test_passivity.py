@@ -42,14 +42,14 @@ def test_problem_shapes_and_cost(standing, contact):
 
 
 def _corner_wrenches(robot: PinRobot, feet: tuple[int, ...], forces: np.ndarray) -> list[pin.Force]:
-    """Corner forces (world axes) as pinocchio external forces on the ankle joints, joint frames."""
+    """Corner forces (sole-frame components) as pinocchio external forces on the ankle joints, joint frames."""
     model, data = robot.model, robot.data
     fext = [pin.Force.Zero() for _ in range(model.njoints)]
     for side, foot_forces in zip(feet, forces.reshape(len(feet), 4, 3)):
         frame = model.frames[robot.sole_ids[side]]
-        joint = data.oMi[frame.parentJoint]
-        for corner, force in zip(sole_corners(), foot_forces):
-            point = data.oMf[robot.sole_ids[side]].act(corner)
+        joint, sole = data.oMi[frame.parentJoint], data.oMf[robot.sole_ids[side]]
+        for corner, force_sole in zip(sole_corners(), foot_forces):
+            point, force = sole.act(corner), sole.rotation @ force_sole
             moment = np.cross(point - joint.translation, force)
             fext[frame.parentJoint] += pin.Force(joint.rotation.T @ force, joint.rotation.T @ moment)
     return fext
@@ -127,9 +127,17 @@ def test_friction_rows_are_the_pyramid_of_each_corner_in_its_sole_frame(moving, 
     rows = problem.C[:-12] @ x
     mu = qp.config.friction
     for k, side in enumerate(problem.feet):
-        rotation = moving.data.oMf[moving.sole_ids[side]].rotation
         for corner in range(4):
-            fx, fy, fz = rotation.T @ x[NV + 12 * k + 3 * corner: NV + 12 * k + 3 * corner + 3]
+            fx, fy, fz = x[NV + 12 * k + 3 * corner: NV + 12 * k + 3 * corner + 3]
             expected = [fx - mu * fz, -fx - mu * fz, fy - mu * fz, -fy - mu * fz, -fz]
             np.testing.assert_allclose(rows[20 * k + 5 * corner: 20 * k + 5 * corner + 5], expected, atol=1e-12)
     assert np.all(problem.u[:-12] == 0) and np.all(problem.l[:-12] == -np.inf)
+
+
+def test_result_forces_are_the_decision_rotated_into_world_axes(moving):
+    qp = PassivityQp()
+    problem, sliding = qp.build(moving, np.array([False, True]), moving.q[7:], np.zeros(12), np.zeros(12))
+    result = qp.solve(moving, problem, sliding)
+    rotation = moving.data.oMf[moving.sole_ids[1]].rotation
+    np.testing.assert_allclose(result.forces[4:], result.decision[NV:].reshape(4, 3) @ rotation.T, atol=1e-12)
+    np.testing.assert_array_equal(result.forces[:4], 0.0)
