@@ -111,6 +111,18 @@ class AlipModel:
         wt = self.omega * T
         return (L_end * np.cosh(wt) / self.mz - v_des) / (self.omega * np.sinh(wt))
 
+    def one_step_placement(self, x: float, L: float, time_left: float, L_des: float, T: float) -> float:
+        """Next contact minus the current one along one axis, by the one-step-ahead law [m].
+
+        (x, L) now flows for `time_left` [s] to touchdown, (x_e, L_e) = A(time_left) (x, L); the foot
+        then lands at x_e + `foot_placement`(L_e, L_des / (m z), T), so that the step after ends with
+        momentum L_des. Plain floats and no checks: this runs every control tick.
+        """
+        wt, wT, mzw = self.omega * time_left, self.omega * T, self.mz * self.omega
+        ch, sh = math.cosh(wt), math.sinh(wt)
+        x_end, L_end = ch * x + sh * L / mzw, mzw * sh * x + ch * L
+        return x_end + (L_end * math.cosh(wT) - L_des) / (mzw * math.sinh(wT))
+
     def end_velocity_for_mean(self, v_mean, T) -> np.ndarray:
         """Velocity at the step's end of the periodic gait whose mean velocity is v_mean [m/s].
 

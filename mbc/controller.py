@@ -50,12 +50,12 @@ class CommandLimits:
     vy_mps: tuple[float, float] = (-0.3, 0.3)
     yaw_rate_radps: tuple[float, float] = (-0.8, 0.8)
 
-    def clip(self, command: Command) -> tuple[np.ndarray, bool]:
-        """The command clipped to the limits as (3,) [vx, vy, yaw_rate], and whether it was clipped."""
+    def clip(self, command: Command) -> tuple[tuple[float, float, float], bool]:
+        """The command clipped to the limits as (vx, vy, yaw_rate), and whether it was clipped."""
         raw = (command.vx, command.vy, command.yaw_rate)
-        clipped = [min(max(value, low), high) for value, (low, high)
-                   in zip(raw, (self.vx_mps, self.vy_mps, self.yaw_rate_radps))]
-        return np.array(clipped), clipped != list(raw)
+        clipped = (min(max(raw[0], self.vx_mps[0]), self.vx_mps[1]), min(max(raw[1], self.vy_mps[0]), self.vy_mps[1]),
+                   min(max(raw[2], self.yaw_rate_radps[0]), self.yaw_rate_radps[1]))
+        return clipped, clipped != raw
 
 
 @dataclass(frozen=True)
@@ -156,8 +156,8 @@ class AlipController:
         self._gravity_z = float(self.robot.model.gravity.linear[2])  # -9.81 m/s^2
         self._zero_joint_acceleration = np.zeros(c.NUM_JOINTS)  # qdd_des: the IK gives positions and velocities
         T = cfg.timing.step_duration_s  # the gait's step-end targets are linear in the command:
-        self._end_velocity_per_mean = self.alip.end_velocity_for_mean(1.0, T)
-        self._lateral_gait_momentum = self.alip.lateral_end_momentum(-1, cfg.step_width_m, T)
+        self._end_velocity_per_mean = float(self.alip.end_velocity_for_mean(1.0, T))
+        self._lateral_gait_momentum = float(self.alip.lateral_end_momentum(-1, cfg.step_width_m, T))
         self._last_q_des = c.Q_STAND.copy()
         self.fallback_count = 0
         self.last_diagnostics: ControllerDiagnostics | None = None
@@ -214,7 +214,7 @@ class AlipController:
 
     # --- the tick -------------------------------------------------------------------------------------
 
-    def _tick(self, state: RobotState, command: np.ndarray, clipped: bool, start: float) -> JointCommand:
+    def _tick(self, state: RobotState, command: tuple[float, float, float], clipped: bool, start: float) -> JointCommand:
         cfg, robot, clock = self.config, self.robot, self.clock
         robot.update(state)
         touchdown = clock.update(state.time, state.contact)
@@ -222,17 +222,18 @@ class AlipController:
         stance_sole = robot.sole_position(stance)
         heading = yaw_of_quaternion(state.base_quat)
         alip = alip_state(robot, stance_sole, heading)
-        T = cfg.timing.step_duration_s
-        foot_step, time_left = self._foot_step(alip, command, stance)
+        step_x, step_y, time_left = self._foot_step(alip, command, stance)
         if self.mpc is not None:
             clock.set_step_duration(clock.time_in_step_s + time_left)
         cos_heading, sin_heading = math.cos(heading), math.sin(heading)
-        offset = np.array([cos_heading * foot_step[0] - sin_heading * foot_step[1],
-                           sin_heading * foot_step[0] + cos_heading * foot_step[1]])  # heading -> world
+        offset_x = cos_heading * step_x - sin_heading * step_y  # heading frame -> world
+        offset_y = sin_heading * step_x + cos_heading * step_y
         stance_rotation = robot.sole_rotation(stance)
         ground_normal = self._ground_normal(stance_rotation)
-        landing_height = -(ground_normal[:2] @ offset) / ground_normal[2]  # on the stance foot's plane
-        target = np.array([stance_sole[0] + offset[0], stance_sole[1] + offset[1], stance_sole[2] + landing_height])
+        nx, ny, nz = ground_normal.tolist()
+        landing_height = -(nx * offset_x + ny * offset_y) / nz  # on the stance foot's plane
+        sole_x, sole_y, sole_z = stance_sole.tolist()
+        target = np.array([sole_x + offset_x, sole_y + offset_y, sole_z + landing_height])
         swing_sole = robot.sole_position(swing)
         phase = clock.phase
         phase_step = self.dt / clock.step_duration_s
@@ -240,7 +241,7 @@ class AlipController:
                                                          clock.step_duration_s, cfg.swing)
         stance_yaw = yaw_of_rotation(stance_rotation)
         swing_yaw_now = yaw_of_rotation(robot.sole_rotation(swing))
-        turn = min(max(command[2] * T, -cfg.max_turn_per_step_rad), cfg.max_turn_per_step_rad)
+        turn = min(max(command[2] * cfg.timing.step_duration_s, -cfg.max_turn_per_step_rad), cfg.max_turn_per_step_rad)
         swing_yaw = stance_yaw + turn  # the landing yaw: the light foot turns early in the swing
         targets = IkTargets(
             stance=stance, swing_position=swing_position, swing_velocity=swing_velocity, swing_yaw=swing_yaw,
@@ -281,7 +282,7 @@ class AlipController:
         self.last_diagnostics = ControllerDiagnostics(
             assumptions=report, stance=stance, phase=phase, touchdown=touchdown, alip=alip, foot_target_world=target,
             stance_sole_world=stance_sole, swing_reference_world=swing_position, com_world=robot.com,
-            command_used=command, command_clipped=clipped, ik_converged=ik.converged, qp_iterations=result.iterations,
+            command_used=np.array(command), command_clipped=clipped, ik_converged=ik.converged, qp_iterations=result.iterations,
             fallback=False, fallback_count=self.fallback_count, tau=tau,
             tick_time_s={"alip": t_alip - start, "ik": t_ik - t_alip, "qp": t_qp - t_ik, "total": end - start})
         return joint_command
@@ -300,27 +301,28 @@ class AlipController:
             return np.array([scale * normal[0], scale * normal[1], math.cos(limit)])
         return normal
 
-    def _foot_step(self, alip: AlipState, command: np.ndarray, stance: int) -> tuple[np.ndarray, float]:
-        """Next foot position relative to the stance sole (heading frame), and the time left [s]."""
+    def _foot_step(self, alip: AlipState, command: tuple[float, float, float], stance: int) -> tuple[float, float, float]:
+        """Next foot position relative to the stance sole (heading frame: x, y) [m], and the time left [s]."""
         cfg, model, clock = self.config, self.alip, self.clock
         T = cfg.timing.step_duration_s
         next_stance_sign = 1 if stance == RIGHT else -1  # the swing foot becomes the stance foot
         # step-end momenta of the periodic gait for the command (`AlipModel.lateral_end_momentum`)
-        L_mean = model.mz * self._end_velocity_per_mean * command[:2]
-        L_des = L_mean - [0.0, next_stance_sign * self._lateral_gait_momentum]
+        Lx_mean = model.mz * self._end_velocity_per_mean * command[0]
+        Ly_mean = model.mz * self._end_velocity_per_mean * command[1]
         swing_side = 1.0 if stance == RIGHT else -1.0  # the swing foot lands to the left (+1) or right (-1)
         if self.mpc is not None:
             signs = next_stance_sign * (-1.0) ** np.arange(self.mpc.config.horizon_steps)
-            sequence = np.c_[np.full(len(signs), L_mean[0]), L_mean[1] - signs * self._lateral_gait_momentum]
+            sequence = np.c_[np.full(len(signs), Lx_mean), Ly_mean - signs * self._lateral_gait_momentum]
             solution = self.mpc.solve(alip.x, alip.L, clock.time_in_step_s, -int(swing_side), sequence)
-            step, time_left = solution.steps_m[0], solution.time_left_s
+            (step_x, step_y), time_left = solution.steps_m[0].tolist(), solution.time_left_s
         else:
             time_left = clock.time_to_touchdown_s
-            x_end, L_end = model.transition_matrix(time_left) @ np.array([alip.x, alip.L])  # rows: x, L per axis
-            step = x_end + model.foot_placement(L_end, L_des / model.mz, T)
-        step = np.array([min(max(step[0], -cfg.max_step_length_m), cfg.max_step_length_m),
-                         swing_side * min(max(swing_side * step[1], cfg.min_step_width_m), cfg.max_step_width_m)])
-        return step, time_left
+            (x, y), (Lx, Ly) = alip.x.tolist(), alip.L.tolist()
+            step_x = model.one_step_placement(x, Lx, time_left, Lx_mean, T)
+            step_y = model.one_step_placement(y, Ly, time_left, Ly_mean - next_stance_sign * self._lateral_gait_momentum, T)
+        step_x = min(max(step_x, -cfg.max_step_length_m), cfg.max_step_length_m)
+        step_y = swing_side * min(max(swing_side * step_y, cfg.min_step_width_m), cfg.max_step_width_m)
+        return step_x, step_y, time_left
 
     # --- failures -------------------------------------------------------------------------------------
 
@@ -335,7 +337,7 @@ class AlipController:
         return bool(quat > 1e-12 and linvel < 20.0**2 and angvel < 50.0**2
                     and (np.abs(state.qd) < 10 * c.SPEED_LIMIT_RADPS).all())
 
-    def _fallback(self, state: RobotState, command: np.ndarray, clipped: bool, start: float, reason: str,
+    def _fallback(self, state: RobotState, command: tuple[float, float, float], clipped: bool, start: float, reason: str,
                   qp_iterations: int = 0) -> JointCommand:
         """Damped hold of the last good joint targets."""
         self.fallback_count += 1
@@ -345,7 +347,7 @@ class AlipController:
         self.last_diagnostics = ControllerDiagnostics(
             assumptions=report, stance=self.clock.stance, phase=self.clock.phase, touchdown=False, alip=None,
             foot_target_world=np.full(3, np.nan), stance_sole_world=np.full(3, np.nan),
-            swing_reference_world=np.full(3, np.nan), com_world=np.full(3, np.nan), command_used=command,
+            swing_reference_world=np.full(3, np.nan), com_world=np.full(3, np.nan), command_used=np.array(command),
             command_clipped=clipped, ik_converged=False,
             qp_iterations=qp_iterations, fallback=True, fallback_count=self.fallback_count, tau=np.zeros(c.NUM_JOINTS),
             tick_time_s={"alip": 0.0, "ik": 0.0, "qp": 0.0, "total": time.perf_counter() - start})

@@ -51,6 +51,18 @@ def test_step_to_step_matrices_match_propagation(rng):
         np.testing.assert_allclose(model.transition_matrix(t) @ s, model.propagate(s[0], s[1], t), rtol=1e-12)
 
 
+def test_scalar_one_step_placement_is_flow_then_foot_placement(rng):
+    """Predict (x, L) to touchdown, place the foot, and the next step ends with the desired momentum."""
+    model, T = AlipModel(47.9, 0.95), 0.35
+    for x, L, time_left, L_des in zip(rng.uniform(-0.2, 0.2, 5), rng.uniform(-20, 20, 5), [0.0, 0.05, 0.1, 0.2, 0.35],
+                                      rng.uniform(-20, 20, 5)):
+        step = model.one_step_placement(x, L, time_left, L_des, T)
+        x_end, L_end = model.propagate(x, L, time_left)
+        assert step == pytest.approx(x_end + model.foot_placement(L_end, L_des / model.mz, T), rel=1e-12, abs=1e-12)
+        _, L_next = model.propagate(x_end - step, L_end, T)  # the CoM relative to the new contact
+        assert L_next == pytest.approx(L_des, abs=1e-9)
+
+
 @pytest.mark.parametrize("v_des", [-0.3, 0.0, 0.5, 1.2])
 def test_one_step_foot_placement_reaches_desired_momentum(v_des, rng):
     model = AlipModel(47.9, 0.95)
