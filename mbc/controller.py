@@ -41,6 +41,9 @@ from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig
 from mbc.types import Command, JointCommand, RobotState
 from robots.digit import constants as c
 
+_JOINT_SPEED_BOUND = (10 * c.SPEED_LIMIT_RADPS).tolist()
+"""Joint speeds beyond 10x the motors' limits mark a state as implausible [rad/s]."""
+
 
 @dataclass(frozen=True)
 class CommandLimits:
@@ -251,7 +254,7 @@ class AlipController:
         t_alip = time.perf_counter()
         ik = self.ik.solve(robot.q, targets)
         t_ik = time.perf_counter()
-        if not math.isfinite(ik.q_des.sum() + ik.qd_des.sum()):  # a NaN or inf anywhere
+        if not all(map(math.isfinite, ik.q_des.tolist() + ik.qd_des.tolist())):
             return self._fallback(state, command, clipped, start, reason="IK returned non-finite targets")
         contact = np.zeros(2, dtype=bool)
         contact[stance] = True
@@ -270,7 +273,7 @@ class AlipController:
             joint_command = JointCommand(q_des=state.q.copy(), qd_des=state.qd.copy(), tau_ff=tau)
         self._last_q_des = ik.q_des
         # Newton for the whole body (the QP satisfies the floating-base rows): m c'' = sum f + m g
-        com_vertical_acceleration = result.forces[:, 2].sum() / robot.mass + self._gravity_z
+        com_vertical_acceleration = math.fsum(result.forces[:, 2].tolist()) / robot.mass + self._gravity_z
         report = AssumptionReport(
             com_height_error_m=float(alip.com_height - cfg.com_height_m),
             com_vertical_velocity_mps=float(alip.com_velocity[2]),
@@ -329,13 +332,16 @@ class AlipController:
     @staticmethod
     def _plausible_state(state: RobotState) -> bool:
         """Finite, a usable quaternion, and speeds a walking robot can have (10x the motors' limits)."""
-        squares = [float(array @ array) for array in (state.base_pos, state.base_quat, state.base_linvel,
-                                                      state.base_angvel, state.q, state.qd)]
-        if not (math.isfinite(state.time) and math.isfinite(math.fsum(squares))):  # NaN or inf anywhere
+        values = np.concatenate((state.base_quat, state.base_linvel, state.base_angvel, state.qd, state.base_pos,
+                                 state.q)).tolist()
+        if not (math.isfinite(state.time) and all(map(math.isfinite, values))):
             return False
-        _, quat, linvel, angvel, _, _ = squares
-        return bool(quat > 1e-12 and linvel < 20.0**2 and angvel < 50.0**2
-                    and (np.abs(state.qd) < 10 * c.SPEED_LIMIT_RADPS).all())
+
+        def squared_norm(start: int, stop: int) -> float:
+            return math.fsum(value * value for value in values[start:stop])
+
+        return (squared_norm(0, 4) > 1e-12 and squared_norm(4, 7) < 20.0**2 and squared_norm(7, 10) < 50.0**2
+                and all(abs(speed) < limit for speed, limit in zip(values[10:22], _JOINT_SPEED_BOUND)))
 
     def _fallback(self, state: RobotState, command: tuple[float, float, float], clipped: bool, start: float, reason: str,
                   qp_iterations: int = 0) -> JointCommand:

@@ -18,6 +18,14 @@ def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
+def rotate_inverse(quat_wxyz: tuple[float, float, float, float], vector: np.ndarray) -> tuple[float, float, float]:
+    """R(q)^T v for a unit quaternion q = (w, u): v - w t + u x t with t = 2 u x v."""
+    w, x, y, z = quat_wxyz
+    a, b, c = vector.tolist()
+    tx, ty, tz = 2.0 * (y * c - z * b), 2.0 * (z * a - x * c), 2.0 * (x * b - y * a)
+    return a - w * tx + y * tz - z * ty, b - w * ty + z * tx - x * tz, c - w * tz + x * ty - y * tx
+
+
 def yaw_of_quaternion(quat_wxyz: np.ndarray) -> np.ndarray | float:
     """Yaw [rad] of orientation(s) given as w x y z quaternions, shape (4,) or (n, 4)."""
     quat = np.asarray(quat_wxyz, dtype=float)

@@ -139,14 +139,14 @@ class WholeBodyIK:
         if ahead_s:
             swing_pose = swing_pose.copy()
             swing_pose[:3, 3] += ahead_s * targets.swing_velocity
-        self._sole_tasks[1 - targets.stance].T_world_frame = swing_pose
+        self._sole_tasks[1 - targets.stance].T_world_frame = swing_pose  # placo copies the targets it is given
         x, y = (targets.pelvis_xy + ahead_s * targets.pelvis_xy_velocity).tolist()
         self._pelvis_xy.target_world = np.array([x, y, 0.0])
 
     def solve(self, q_measured: np.ndarray, targets: IkTargets) -> IkResult:
         """IK from the measured pinocchio configuration `q_measured` toward `targets`."""
         robot = self.robot
-        robot.state.q = q_measured.copy()
+        robot.state.q = q_measured  # copied by placo
         robot.update_kinematics()
         self._configure_stance(targets.stance)
         stance_name = c.SOLE_FRAMES[targets.stance]
@@ -156,16 +156,16 @@ class WholeBodyIK:
         for _ in range(self.config.iterations):
             self.solver.solve(True)
             robot.update_kinematics()
-        q_now = robot.state.q.copy()
-        swing_offset = robot.get_T_world_frame(c.SOLE_FRAMES[1 - targets.stance])[:3, 3] - targets.swing_position
-        swing_error = math.sqrt(swing_offset @ swing_offset)
-        com_error = float(robot.com_world()[2] - targets.com_height)
+        q_now = robot.state.q.copy()  # the getter is a view on placo's state
+        swing_error = math.dist(robot.get_T_world_frame(c.SOLE_FRAMES[1 - targets.stance])[:3, 3].tolist(),
+                                targets.swing_position.tolist())
+        com_error = robot.com_world()[2].item() - targets.com_height
         self._set_moving_targets(targets, swing_pose, self.dt)
         self.solver.solve(True)
         q_ahead = robot.state.q
         q_des = q_now[self.joint_map.q]
         qd_des = (q_ahead[self.joint_map.q] - q_des) / self.dt
         tol = self.config.convergence_tolerance_m
-        converged = bool(swing_error < tol and abs(com_error) < tol and math.isfinite(q_des.sum()))
+        converged = swing_error < tol and abs(com_error) < tol  # False for NaN errors too
         return IkResult(q_des=q_des, qd_des=qd_des, converged=converged, swing_error_m=swing_error,
                         com_height_error_m=com_error)

@@ -20,6 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from mbc.errors import ModelLoadError
+from mbc.geometry import rotate_inverse
 from robots.digit import constants as c
 from robots.digit.urdf import URDF_PATH
 
@@ -151,16 +152,13 @@ class JointMap:
         return cls(q=as_slice(model.jnt_qposadr[ids]), v=as_slice(model.jnt_dofadr[ids]))
 
 
-def quat_wxyz_to_xyzw(quat: np.ndarray) -> np.ndarray:
-    return np.asarray(quat)[..., [1, 2, 3, 0]]
-
-
 def pinocchio_configuration(base_pos: np.ndarray, base_quat_wxyz: np.ndarray, q_joints: np.ndarray,
                             joint_map: JointMap) -> np.ndarray:
     """Pinocchio q from a base pose and joint positions in `JOINT_NAMES` order."""
     q = np.empty(7 + c.NUM_JOINTS)
     q[:3] = base_pos
-    q[3:7] = quat_wxyz_to_xyzw(base_quat_wxyz)
+    w, x, y, z = np.asarray(base_quat_wxyz, dtype=float).tolist()
+    q[3:7] = x, y, z, w  # pinocchio's order
     q[joint_map.q] = q_joints
     return q
 
@@ -168,9 +166,9 @@ def pinocchio_configuration(base_pos: np.ndarray, base_quat_wxyz: np.ndarray, q_
 def pinocchio_velocity(base_quat_wxyz: np.ndarray, v_world_base: np.ndarray, w_world_base: np.ndarray,
                        qd_joints: np.ndarray, joint_map: JointMap) -> np.ndarray:
     """Pinocchio v (base twist in the base frame) from world-frame base velocities."""
-    rotation = pin.Quaternion(*np.asarray(base_quat_wxyz, dtype=float).tolist()).toRotationMatrix()  # w, x, y, z
+    quat = np.asarray(base_quat_wxyz, dtype=float).tolist()
     v = np.empty(6 + c.NUM_JOINTS)
-    v[:3] = rotation.T @ v_world_base
-    v[3:6] = rotation.T @ w_world_base
+    v[:3] = rotate_inverse(quat, np.asarray(v_world_base, dtype=float))
+    v[3:6] = rotate_inverse(quat, np.asarray(w_world_base, dtype=float))
     v[joint_map.v] = qd_joints
     return v

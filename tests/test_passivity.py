@@ -126,7 +126,7 @@ def test_friction_rows_are_the_pyramid_of_each_corner_in_its_sole_frame(moving, 
     x = rng.normal(size=problem.H.shape[0])
     rows = problem.C[:-12] @ x
     mu = qp.config.friction
-    for k, side in enumerate(problem.feet):
+    for k in range(len(problem.feet)):
         for corner in range(4):
             fx, fy, fz = x[NV + 12 * k + 3 * corner: NV + 12 * k + 3 * corner + 3]
             expected = [fx - mu * fz, -fx - mu * fz, fy - mu * fz, -fy - mu * fz, -fz]
