@@ -10,7 +10,7 @@ import numpy as np
 from mbc.pin_robot import PinRobot
 
 
-@dataclass(frozen=True)
+@dataclass
 class AlipState:
     """ALIP coordinates in the heading frame (x forward, y left), about the stance contact point."""
 

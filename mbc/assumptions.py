@@ -56,4 +56,4 @@ class AssumptionReport:
 
 def saturation(tau: np.ndarray, limit: np.ndarray, tolerance: float = 1e-6) -> float:
     """Fraction of joints whose |torque| is at the limit."""
-    return np.count_nonzero(np.abs(tau) >= limit - tolerance) / len(tau)
+    return sum(abs(torque) >= bound - tolerance for torque, bound in zip(tau.tolist(), limit.tolist())) / len(tau)

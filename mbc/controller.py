@@ -109,7 +109,7 @@ class AlipControllerConfig:
             raise ConfigError("the PD action-space conversion needs positive kp")
 
 
-@dataclass(frozen=True)
+@dataclass
 class ControllerDiagnostics:
     """What the controller saw and did in one tick."""
 
@@ -222,7 +222,8 @@ class AlipController:
         robot.update(state)
         touchdown = clock.update(state.time, state.contact)
         stance, swing = clock.stance, clock.swing
-        stance_sole = robot.sole_position(stance)
+        stance_sole, stance_rotation = robot.sole_pose(stance)
+        swing_sole, swing_rotation = robot.sole_pose(swing)
         heading = yaw_of_quaternion(state.base_quat)
         alip = alip_state(robot, stance_sole, heading)
         step_x, step_y, time_left = self._foot_step(alip, command, stance)
@@ -231,19 +232,17 @@ class AlipController:
         cos_heading, sin_heading = math.cos(heading), math.sin(heading)
         offset_x = cos_heading * step_x - sin_heading * step_y  # heading frame -> world
         offset_y = sin_heading * step_x + cos_heading * step_y
-        stance_rotation = robot.sole_rotation(stance)
         ground_normal = self._ground_normal(stance_rotation)
         nx, ny, nz = ground_normal.tolist()
         landing_height = -(nx * offset_x + ny * offset_y) / nz  # on the stance foot's plane
         sole_x, sole_y, sole_z = stance_sole.tolist()
         target = np.array([sole_x + offset_x, sole_y + offset_y, sole_z + landing_height])
-        swing_sole = robot.sole_position(swing)
         phase = clock.phase
         phase_step = self.dt / clock.step_duration_s
         swing_position, swing_velocity = swing_reference(swing_sole, target, phase, phase_step,
                                                          clock.step_duration_s, cfg.swing)
         stance_yaw = yaw_of_rotation(stance_rotation)
-        swing_yaw_now = yaw_of_rotation(robot.sole_rotation(swing))
+        swing_yaw_now = yaw_of_rotation(swing_rotation)
         turn = min(max(command[2] * cfg.timing.step_duration_s, -cfg.max_turn_per_step_rad), cfg.max_turn_per_step_rad)
         swing_yaw = stance_yaw + turn  # the landing yaw: the light foot turns early in the swing
         targets = IkTargets(

@@ -49,7 +49,7 @@ class IkConfig:
             raise ConfigError(f"iterations must be >= 1, got {self.iterations}")
 
 
-@dataclass(frozen=True)
+@dataclass
 class IkTargets:
     """World-frame targets of one tick."""
 
@@ -70,7 +70,7 @@ class IkTargets:
     pelvis_xy_velocity: np.ndarray
 
 
-@dataclass(frozen=True)
+@dataclass
 class IkResult:
     q_des: np.ndarray
     """(12,) joint positions [rad]."""

@@ -135,7 +135,7 @@ class QpProblem:
         return forces.reshape(2 * NUM_CORNERS, 3)
 
 
-@dataclass(frozen=True)
+@dataclass
 class QpResult:
     tau: np.ndarray
     """(12,) joint torques to apply (QP torque plus the passivity terms, clipped) [N m]."""
@@ -176,10 +176,10 @@ class _Template:
 
     H: np.ndarray
     """Base, joint-tracking and force weights on the diagonal."""
-    C: np.ndarray
-    """Friction-pyramid rows filled in (the torque rows are per tick)."""
-    lower: np.ndarray
-    upper: np.ndarray
+    pyramid: np.ndarray
+    """The friction-pyramid rows of C (the torque rows follow, per tick)."""
+    pyramid_lower: np.ndarray
+    pyramid_upper: np.ndarray
     joint_gradient: np.ndarray
     """(12,) -joint weights: the gradient of the tracking cost is this times a_r."""
 
@@ -197,7 +197,7 @@ class PassivityQp:
 
     def _template(self, feet: tuple[int, ...], joints_v: slice | np.ndarray) -> _Template:
         cfg = self.config
-        n, rows = num_variables(len(feet)), num_inequalities(len(feet))
+        n = num_variables(len(feet))
         joint_weights = np.full(c.NUM_JOINTS, cfg.joint_weight)
         if len(feet) == 1:  # the single-support pivot: a nearly passive stance ankle
             joint_weights[feet[0] * 6 + 4: feet[0] * 6 + 6] *= cfg.stance_ankle_weight
@@ -206,10 +206,10 @@ class PassivityQp:
         mu = cfg.friction
         pyramid = np.array([[1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu], [0, 0, -1.0]])  # on (f_x, f_y, f_z)
         corners = NUM_CORNERS * len(feet)
-        C = np.zeros((rows, n))
-        C[:PYRAMID_ROWS * corners, NV:] = np.kron(np.eye(corners), pyramid)
-        lower, upper = np.full(rows, -np.inf), np.zeros(rows)  # pyramid rows: C f <= 0
-        return _Template(H=np.diag(diagonal), C=C, lower=lower, upper=upper, joint_gradient=-joint_weights)
+        rows = np.zeros((PYRAMID_ROWS * corners, n))
+        rows[:, NV:] = np.kron(np.eye(corners), pyramid)
+        return _Template(H=np.diag(diagonal), pyramid=rows, pyramid_lower=np.full(len(rows), -np.inf),
+                         pyramid_upper=np.zeros(len(rows)), joint_gradient=-joint_weights)  # C f <= 0
 
     def _new_solver(self, feet_in_contact: int) -> proxsuite.proxqp.dense.QP:
         cfg = self.config
@@ -247,12 +247,10 @@ class PassivityQp:
         sliding = v_joints - qd_des - cfg.sliding_gain * (q_des - q[joints_q])
         a_ref = qdd_des + cfg.sliding_gain * (qd_des - v_joints)
 
-        H = template.H.copy()
-        g = np.zeros(len(H))
-        g[joints_v] = template.joint_gradient * a_ref
-        dynamics = np.empty((NV, len(H)))  # M a - J_c^T G f; the dynamics are dynamics @ x + h = S^T tau
+        n = len(template.H)
+        dynamics = np.empty((NV, n))  # M a - J_c^T G f; the dynamics are dynamics @ x + h = S^T tau
         dynamics[:, :NV] = M
-        rotations = []
+        contact_hessian, contact_gradient, rotations = 0.0, 0.0, []
         for k, side in enumerate(feet):
             frame = robot.sole_ids[side]
             jacobian = pin.getFrameJacobian(model, data, frame, pin.LOCAL)
@@ -261,21 +259,22 @@ class PassivityQp:
             drift = pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL).vector
             velocity = pin.getFrameVelocity(model, data, frame, pin.LOCAL).vector
             weighted = cfg.contact_weight * jacobian.T
-            H[:NV, :NV] += weighted @ jacobian
-            g[:NV] += weighted @ (drift + cfg.contact_damping * velocity)
+            contact_hessian = contact_hessian + weighted @ jacobian
+            contact_gradient = contact_gradient + weighted @ (drift + cfg.contact_damping * velocity)
             rotations.append(data.oMf[frame].rotation)
 
         torque_map, torque_offset = dynamics[joints_v], h[joints_v]
         weighted = cfg.torque_weight * torque_map.T
-        H += weighted @ torque_map
-        g += weighted @ torque_offset
-        C = template.C.copy()
-        C[-c.NUM_JOINTS:] = torque_map
-        lower, upper = template.lower.copy(), template.upper.copy()
-        lower[-c.NUM_JOINTS:] = -c.TORQUE_LIMIT_NM - torque_offset
-        upper[-c.NUM_JOINTS:] = c.TORQUE_LIMIT_NM - torque_offset
-        problem = QpProblem(H=H, g=g, A=dynamics[:6].copy(), b=-h[:6], C=C, l=lower, u=upper, feet=feet,
-                            sole_rotations=tuple(rotations), torque_map=torque_map, torque_offset=torque_offset)
+        H = weighted @ torque_map + template.H
+        H[:NV, :NV] += contact_hessian
+        g = weighted @ torque_offset
+        g[:NV] += contact_gradient
+        g[joints_v] += template.joint_gradient * a_ref
+        problem = QpProblem(
+            H=H, g=g, A=dynamics[:6], b=-h[:6], C=np.concatenate((template.pyramid, torque_map)),
+            l=np.concatenate((template.pyramid_lower, -c.TORQUE_LIMIT_NM - torque_offset)),
+            u=np.concatenate((template.pyramid_upper, c.TORQUE_LIMIT_NM - torque_offset)), feet=feet,
+            sole_rotations=tuple(rotations), torque_map=torque_map, torque_offset=torque_offset)
         return problem, sliding
 
     def solve(self, robot: PinRobot, problem: QpProblem, sliding: np.ndarray) -> QpResult:

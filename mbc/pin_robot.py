@@ -49,8 +49,10 @@ class PinRobot:
         """(3,) sole frame origin of foot `side` (0 left, 1 right), world [m]."""
         return self.data.oMf[self.sole_ids[side]].translation.copy()
 
-    def sole_rotation(self, side: int) -> np.ndarray:
-        return self.data.oMf[self.sole_ids[side]].rotation.copy()
+    def sole_pose(self, side: int) -> tuple[np.ndarray, np.ndarray]:
+        """(3,) position [m] and (3, 3) rotation of the sole frame of foot `side`, world."""
+        placement = self.data.oMf[self.sole_ids[side]]
+        return placement.translation.copy(), placement.rotation.copy()
 
     def sole_velocity(self, side: int) -> np.ndarray:
         """(6,) sole frame linear and angular velocity, world-aligned axes."""
