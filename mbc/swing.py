@@ -82,17 +82,15 @@ def swing_reference(p_measured: np.ndarray, p_target: np.ndarray, phase: float, 
     b_now, _ = min_jerk(phase)
     b_next, db_next = min_jerk(phase + phase_step)
     remaining = 1.0 - b_now
-    horizontal = p_target[:2] - p_measured[:2]
+    (x, y, _), (x_target, y_target, z_target) = p_measured.tolist(), p_target.tolist()
+    dx, dy = x_target - x, y_target - y
     if remaining > 1e-6 and phase < 1.0:
-        fraction = (b_next - b_now) / remaining
-        velocity_xy = horizontal * db_next / (remaining * duration_s)
+        fraction, rate = (b_next - b_now) / remaining, db_next / (remaining * duration_s)
     else:
-        fraction, velocity_xy = 1.0, np.zeros(2)
+        fraction, rate = 1.0, 0.0
     height, velocity_z = _vertical(phase + phase_step, cfg, duration_s)
-    position = np.empty(3)
-    position[:2] = p_measured[:2] + fraction * horizontal
-    position[2] = p_target[2] + cfg.landing_offset_m + height
-    return position, np.array([velocity_xy[0], velocity_xy[1], velocity_z])
+    position = np.array([x + fraction * dx, y + fraction * dy, z_target + cfg.landing_offset_m + height])
+    return position, np.array([rate * dx, rate * dy, velocity_z])
 
 
 def estimate_phase(height_m: float, vertical_velocity_mps: float, cfg: SwingConfig) -> float:
