@@ -272,7 +272,7 @@ class AlipController:
             joint_command = JointCommand(q_des=state.q.copy(), qd_des=state.qd.copy(), tau_ff=tau)
         self._last_q_des = ik.q_des
         # Newton for the whole body (the QP satisfies the floating-base rows): m c'' = sum f + m g
-        com_vertical_acceleration = math.fsum(result.forces[:, 2].tolist()) / robot.mass + self._gravity_z
+        com_vertical_acceleration = result.vertical_force() / robot.mass + self._gravity_z
         report = AssumptionReport(
             com_height_error_m=float(alip.com_height - cfg.com_height_m),
             com_vertical_velocity_mps=float(alip.com_velocity[2]),

@@ -140,14 +140,30 @@ class QpResult:
     tau: np.ndarray
     """(12,) joint torques to apply (QP torque plus the passivity terms, clipped) [N m]."""
     tau_qp: np.ndarray
-    acceleration: np.ndarray
-    """(18,) generalized acceleration of the QP (pinocchio v-space)."""
-    forces: np.ndarray
-    """(8, 3) corner forces, left foot corners first, world axes; zero on a foot not in contact [N]."""
     decision: np.ndarray
     """(n,) the QP's solution x (corner forces in their sole frames)."""
     solved: bool
     iterations: int
+    problem: QpProblem
+
+    @property
+    def acceleration(self) -> np.ndarray:
+        """(18,) generalized acceleration of the QP (pinocchio v-space)."""
+        return self.decision[A_SLICE]
+
+    @property
+    def forces(self) -> np.ndarray:
+        """(8, 3) corner forces, left foot corners first, world axes; zero on a foot not in contact [N]."""
+        return self.problem.corner_forces_world(self.decision)
+
+    def vertical_force(self) -> float:
+        """Sum of the corner forces' world z components [N]: per foot, the sole's z row of R times
+        the sum of its corner forces."""
+        total = 0.0
+        for k, rotation in enumerate(self.problem.sole_rotations):
+            foot = self.decision[NV + FORCES_PER_FOOT * k: NV + FORCES_PER_FOOT * (k + 1)].reshape(NUM_CORNERS, 3)
+            total += float(rotation[2] @ foot.sum(axis=0))
+        return total
 
 
 def sole_corners() -> np.ndarray:
@@ -289,12 +305,11 @@ class PassivityQp:
             self._initialized[feet_in_contact] = True
         qp.solve()
         results = qp.results
-        x = results.x
+        x = results.x.copy()  # results.x is a view that the next solve overwrites
         solved = results.info.status == _SOLVED and math.isfinite(x @ x)
         tau_qp = problem.torque_map @ x + problem.torque_offset
         joints_v = robot.joint_map.v
         coriolis = pin.computeCoriolisMatrix(robot.model, robot.data, robot.q, robot.v)[joints_v][:, joints_v]
         tau = tau_qp - coriolis @ sliding - self._damping * sliding
         tau = np.minimum(np.maximum(tau, -c.TORQUE_LIMIT_NM), c.TORQUE_LIMIT_NM)
-        return QpResult(tau=tau, tau_qp=tau_qp, acceleration=x[A_SLICE].copy(), forces=problem.corner_forces_world(x),
-                        decision=x, solved=solved, iterations=int(results.info.iter))
+        return QpResult(tau=tau, tau_qp=tau_qp, decision=x, solved=solved, iterations=int(results.info.iter), problem=problem)

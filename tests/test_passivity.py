@@ -141,3 +141,14 @@ def test_result_forces_are_the_decision_rotated_into_world_axes(moving):
     rotation = moving.data.oMf[moving.sole_ids[1]].rotation
     np.testing.assert_allclose(result.forces[4:], result.decision[NV:].reshape(4, 3) @ rotation.T, atol=1e-12)
     np.testing.assert_array_equal(result.forces[:4], 0.0)
+    assert result.vertical_force() == pytest.approx(result.forces[:, 2].sum(), abs=1e-9)
+
+
+def test_a_result_is_not_changed_by_the_next_solve(standing):
+    qp = PassivityQp()
+    contact = np.array([True, True])
+    first = qp.solve(standing, *qp.build(standing, contact, standing.q[7:], np.zeros(12), np.zeros(12)))
+    decision = first.decision.copy()
+    second = qp.solve(standing, *qp.build(standing, contact, standing.q[7:], np.full(12, 0.5), np.zeros(12)))
+    assert np.abs(second.decision - decision).max() > 1e-3  # a different problem (a_r follows qd_des)
+    np.testing.assert_array_equal(first.decision, decision)
