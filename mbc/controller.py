@@ -331,16 +331,13 @@ class AlipController:
     @staticmethod
     def _plausible_state(state: RobotState) -> bool:
         """Finite, a usable quaternion, and speeds a walking robot can have (10x the motors' limits)."""
-        values = np.concatenate((state.base_quat, state.base_linvel, state.base_angvel, state.qd, state.base_pos,
-                                 state.q)).tolist()
+        values = np.concatenate((state.base_pos, state.base_quat, state.base_linvel, state.base_angvel, state.q,
+                                 state.qd)).tolist()
         if not (math.isfinite(state.time) and all(map(math.isfinite, values))):
             return False
-
-        def squared_norm(start: int, stop: int) -> float:
-            return math.fsum(value * value for value in values[start:stop])
-
-        return (squared_norm(0, 4) > 1e-12 and squared_norm(4, 7) < 20.0**2 and squared_norm(7, 10) < 50.0**2
-                and all(abs(speed) < limit for speed, limit in zip(values[10:22], _JOINT_SPEED_BOUND)))
+        quat, linvel, angvel = (float(array @ array) for array in (state.base_quat, state.base_linvel, state.base_angvel))
+        return (quat > 1e-12 and linvel < 20.0**2 and angvel < 50.0**2
+                and all(abs(speed) < bound for speed, bound in zip(state.qd.tolist(), _JOINT_SPEED_BOUND)))
 
     def _fallback(self, state: RobotState, command: tuple[float, float, float], clipped: bool, start: float, reason: str,
                   qp_iterations: int = 0) -> JointCommand:

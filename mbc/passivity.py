@@ -127,11 +127,16 @@ class QpProblem:
         Cx = self.C @ x
         return max(float(np.max(np.abs(self.A @ x - self.b))), float(np.max(np.maximum(Cx - self.u, self.l - Cx))))
 
+    @staticmethod
+    def sole_frame_forces(x: np.ndarray) -> np.ndarray:
+        """(n_c, 4, 3) the corner forces of x, per foot in `feet`, each in its sole's frame [N]."""
+        return x[NV:].reshape(-1, NUM_CORNERS, 3)
+
     def corner_forces_world(self, x: np.ndarray) -> np.ndarray:
         """(8, 3) corner forces of x in world axes, left foot corners first; zero on a swinging foot [N]."""
         forces = np.zeros((2, NUM_CORNERS, 3))
-        for k, (side, rotation) in enumerate(zip(self.feet, self.sole_rotations)):
-            forces[side] = x[NV + FORCES_PER_FOOT * k: NV + FORCES_PER_FOOT * (k + 1)].reshape(NUM_CORNERS, 3) @ rotation.T
+        for side, rotation, foot in zip(self.feet, self.sole_rotations, self.sole_frame_forces(x)):
+            forces[side] = foot @ rotation.T
         return forces.reshape(2 * NUM_CORNERS, 3)
 
 
@@ -159,11 +164,8 @@ class QpResult:
     def vertical_force(self) -> float:
         """Sum of the corner forces' world z components [N]: per foot, the sole's z row of R times
         the sum of its corner forces."""
-        total = 0.0
-        for k, rotation in enumerate(self.problem.sole_rotations):
-            foot = self.decision[NV + FORCES_PER_FOOT * k: NV + FORCES_PER_FOOT * (k + 1)].reshape(NUM_CORNERS, 3)
-            total += float(rotation[2] @ foot.sum(axis=0))
-        return total
+        return sum(float(rotation[2] @ foot.sum(axis=0))
+                   for rotation, foot in zip(self.problem.sole_rotations, self.problem.sole_frame_forces(self.decision)))
 
 
 def sole_corners() -> np.ndarray:
