@@ -56,11 +56,11 @@ def within(measured: float, commanded: float) -> bool:
 
 
 def _walk(job: tuple) -> dict:
-    """One run: (label, commands, duration, seed, terrain, terrain params, pushes)."""
-    label, commands, duration, seed, terrain, params, pushes = job
+    """One run: (label, commands, duration, seed, terrain, terrain params, pushes[, controller options])."""
+    label, commands, duration, seed, terrain, params, pushes, *options = job
     warnings.simplefilter("ignore", RuntimeWarning)
     sim = DigitSim(terrain, seed=seed, **params)
-    controller = AlipController.for_digit()
+    controller = AlipController.for_digit(**(options[0] if options else {}))
     episode = run_episode(sim, controller, commands, duration, pushes, state=perturbed_start(sim, seed))
     final = commands if isinstance(commands, Command) else commands[-1][1]
     since = 3.0 if isinstance(commands, Command) else commands[-1][0] + 2.0
@@ -72,11 +72,11 @@ def _walk(job: tuple) -> dict:
 
 def _report(title: str, results: list[dict]) -> None:
     print(f"\n== {title}")
-    print(f"{'case':>34} {'runs':>4} {'no fall':>8} {'tracked':>8}   mean (vx, vy, yaw) over runs")
+    print(f"{'case':>40} {'runs':>4} {'no fall':>8} {'tracked':>8}   mean (vx, vy, yaw) over runs")
     for label in dict.fromkeys(r["label"] for r in results):
         rows = [r for r in results if r["label"] == label]
         mean = np.nanmean([r["mean"] for r in rows], axis=0)
-        print(f"{label:>34} {len(rows):4d} {sum(not r['fell'] for r in rows):8d} {sum(r['tracked'] for r in rows):8d}"
+        print(f"{label:>40} {len(rows):4d} {sum(not r['fell'] for r in rows):8d} {sum(r['tracked'] for r in rows):8d}"
               f"   ({mean[0]:+.3f}, {mean[1]:+.3f}, {mean[2]:+.3f})")
     print(f"{'total':>34} {len(results):4d} {sum(not r['fell'] for r in results):8d} {sum(r['tracked'] for r in results):8d}")
 
@@ -102,16 +102,23 @@ def suite_flat(args: Args) -> None:
 
 
 def suite_push(args: Args) -> None:
-    """100 N for 0.2 s on the pelvis, four directions, at phases spread over a two-step cycle."""
+    """100 N for 0.2 s on the pelvis, four directions, at phases spread over a two-step cycle; then
+    stronger sideways pushes, with and without step-timing adaptation (same runs otherwise)."""
     T = AlipController.for_digit().config.timing.step_duration_s
+    directions = {"forward": (1, 0, 0), "backward": (-1, 0, 0), "left": (0, 1, 0), "right": (0, -1, 0)}
+
+    def jobs_for(force: float, names: tuple[str, ...], options: dict, tag: str = "") -> list[tuple]:
+        return [(f"push {name} {force:.0f} N x 0.2 s{tag}", Command(0.2, 0.0, 0.0), 8.0, k, "flat", {},
+                 (Push(3.0 + 2 * T * k / args.seeds, tuple(force * u for u in directions[name]), 0.2),), options)
+                for name in names for k in range(args.seeds)]
+
+    _report("pushes while walking at 0.2 m/s (phases spread over a gait cycle)",
+             _run_jobs(jobs_for(100.0, tuple(directions), {}), args.workers))
     jobs = []
-    for name, force in (("forward", (100, 0, 0)), ("backward", (-100, 0, 0)), ("left", (0, 100, 0)),
-                        ("right", (0, -100, 0))):
-        for k in range(args.seeds):
-            push_time = 3.0 + 2 * T * k / args.seeds
-            jobs.append((f"push {name} 100 N x 0.2 s", Command(0.2, 0.0, 0.0), 8.0, k, "flat", {},
-                         (Push(push_time, force, 0.2),)))
-    _report("pushes while walking at 0.2 m/s (phases spread over a gait cycle)", _run_jobs(jobs, args.workers))
+    for force in (150.0, 200.0):
+        for adapt in (True, False):
+            jobs += jobs_for(force, ("left", "right"), {"adapt_step_timing": adapt}, "" if adapt else ", fixed timing")
+    _report("stronger sideways pushes: step-timing adaptation against fixed step timing", _run_jobs(jobs, args.workers))
 
 
 def suite_terrain(args: Args) -> None:

@@ -123,6 +123,32 @@ class AlipModel:
         x_end, L_end = ch * x + sh * L / mzw, mzw * sh * x + ch * L
         return x_end + (L_end * math.cosh(wT) - L_des) / (mzw * math.sinh(wT))
 
+    def time_left_for_step(self, x: float, L: float, L_des: float, T: float, step: float,
+                           earliest: float, latest: float) -> float | None:
+        """The latest time to touchdown in [earliest, latest] at which `one_step_placement` is `step` [s].
+
+        With u = exp(w t) the placement is p(u) = a u + b / u - K, where
+            a = (1 + coth wT) (x + L / (m z w)) / 2,  b = (1 - coth wT) (x - L / (m z w)) / 2,
+            K = L_des / (m z w sinh wT),
+        so p(u) = step is the quadratic a u^2 - (step + K) u + b = 0. None when no root is in range.
+        The step-timing adaptation: when the placement saturates, touch down when it fits the bound.
+        """
+        wT, mzw = self.omega * T, self.mz * self.omega
+        coth, xi, eta = 1.0 / math.tanh(wT), x + L / mzw, x - L / mzw
+        a, b = 0.5 * (1.0 + coth) * xi, 0.5 * (1.0 - coth) * eta
+        k = step + L_des / (mzw * math.sinh(wT))
+        if abs(a) < 1e-12:
+            roots = [b / k] if k else []
+        else:
+            discriminant = k * k - 4.0 * a * b
+            if discriminant < 0:
+                return None
+            root = math.sqrt(discriminant)
+            roots = [(k + root) / (2.0 * a), (k - root) / (2.0 * a)]
+        times = [math.log(u) / self.omega for u in roots if u > 0]
+        times = [t for t in times if earliest <= t <= latest]
+        return max(times) if times else None
+
     def end_velocity_for_mean(self, v_mean, T) -> np.ndarray:
         """Velocity at the step's end of the periodic gait whose mean velocity is v_mean [m/s].
 

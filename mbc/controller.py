@@ -82,6 +82,11 @@ class AlipControllerConfig:
     walking, and on bumpy ground a local tilt extrapolated over a step misplaces the landing."""
     max_ground_tilt_rad: float = 0.35
     """Largest ground slope the landing plane follows [rad]."""
+    adapt_step_timing: bool = True
+    """With the one-step law: when the step is beyond reach (longer than `max_step_length_m` or wider
+    than `max_step_width_m`, after a push), touch down sooner, when the law's step is within reach
+    (`AlipModel.time_left_for_step`), down to the pace `timing.min_step_duration_s`. Steps clipped at
+    `min_step_width_m` (the legs would cross) are not retimed: a sooner step did not help there."""
     foot_placement: Literal["one_step", "mpc"] = "one_step"
     """One-step-ahead law (default) or the multi-step ALIP MPC with step timing."""
     output: Literal["pd", "torque"] = "pd"
@@ -226,9 +231,7 @@ class AlipController:
         swing_sole, swing_rotation = robot.sole_pose(swing)
         heading = yaw_of_quaternion(state.base_quat)
         alip = alip_state(robot, stance_sole, heading)
-        step_x, step_y, time_left = self._foot_step(alip, command, stance)
-        if self.mpc is not None:
-            clock.set_step_duration(clock.time_in_step_s + time_left)
+        step_x, step_y = self._foot_step(alip, command, stance)
         cos_heading, sin_heading = math.cos(heading), math.sin(heading)
         offset_x = cos_heading * step_x - sin_heading * step_y  # heading frame -> world
         offset_y = sin_heading * step_x + cos_heading * step_y
@@ -303,28 +306,61 @@ class AlipController:
             return np.array([scale * normal[0], scale * normal[1], math.cos(limit)])
         return normal
 
-    def _foot_step(self, alip: AlipState, command: tuple[float, float, float], stance: int) -> tuple[float, float, float]:
-        """Next foot position relative to the stance sole (heading frame: x, y) [m], and the time left [s]."""
+    def _foot_step(self, alip: AlipState, command: tuple[float, float, float], stance: int) -> tuple[float, float]:
+        """Next foot position relative to the stance sole (heading frame: x, y) [m]; retimes the touchdown
+        as the MPC plans it, or, with the one-step law, sooner when the step is beyond reach."""
         cfg, model, clock = self.config, self.alip, self.clock
         T = cfg.timing.step_duration_s
         next_stance_sign = 1 if stance == RIGHT else -1  # the swing foot becomes the stance foot
         # step-end momenta of the periodic gait for the command (`AlipModel.lateral_end_momentum`)
-        Lx_mean = model.mz * self._end_velocity_per_mean * command[0]
+        Lx_des = model.mz * self._end_velocity_per_mean * command[0]
         Ly_mean = model.mz * self._end_velocity_per_mean * command[1]
+        Ly_des = Ly_mean - next_stance_sign * self._lateral_gait_momentum
         swing_side = 1.0 if stance == RIGHT else -1.0  # the swing foot lands to the left (+1) or right (-1)
         if self.mpc is not None:
             signs = next_stance_sign * (-1.0) ** np.arange(self.mpc.config.horizon_steps)
-            sequence = np.c_[np.full(len(signs), Lx_mean), Ly_mean - signs * self._lateral_gait_momentum]
+            sequence = np.c_[np.full(len(signs), Lx_des), Ly_mean - signs * self._lateral_gait_momentum]
             solution = self.mpc.solve(alip.x, alip.L, clock.time_in_step_s, -int(swing_side), sequence)
-            (step_x, step_y), time_left = solution.steps_m[0].tolist(), solution.time_left_s
-        else:
-            time_left = clock.time_to_touchdown_s
-            (x, y), (Lx, Ly) = alip.x.tolist(), alip.L.tolist()
-            step_x = model.one_step_placement(x, Lx, time_left, Lx_mean, T)
-            step_y = model.one_step_placement(y, Ly, time_left, Ly_mean - next_stance_sign * self._lateral_gait_momentum, T)
-        step_x = min(max(step_x, -cfg.max_step_length_m), cfg.max_step_length_m)
-        step_y = swing_side * min(max(swing_side * step_y, cfg.min_step_width_m), cfg.max_step_width_m)
-        return step_x, step_y, time_left
+            clock.retime(solution.time_left_s)
+            step_x, step_y = solution.steps_m[0].tolist()
+            return self._clip_step(step_x, step_y, swing_side)
+        (x, y), (Lx, Ly) = alip.x.tolist(), alip.L.tolist()
+        time_left = clock.time_to_touchdown_s
+        step_x = model.one_step_placement(x, Lx, time_left, Lx_des, T)
+        step_y = model.one_step_placement(y, Ly, time_left, Ly_des, T)
+        clipped_x, clipped_y = self._clip_step(step_x, step_y, swing_side)
+        beyond_reach_x, beyond_reach_y = clipped_x != step_x, swing_side * step_y > cfg.max_step_width_m
+        earliest = (1.0 - clock.phase) * cfg.timing.min_step_duration_s
+        if not (cfg.adapt_step_timing and (beyond_reach_x or beyond_reach_y) and 0.0 < earliest < time_left):
+            return clipped_x, clipped_y  # (a late step is not retimed)
+        sooner = time_left
+        if beyond_reach_x:
+            sooner = self._time_left_to_fit(x, Lx, Lx_des, clipped_x, step_x, time_left, earliest)
+        if beyond_reach_y:
+            sooner = min(sooner, self._time_left_to_fit(y, Ly, Ly_des, clipped_y, step_y, time_left, earliest))
+        if sooner >= time_left:
+            return clipped_x, clipped_y
+        clock.retime(sooner)
+        time_left = clock.time_to_touchdown_s
+        return self._clip_step(model.one_step_placement(x, Lx, time_left, Lx_des, T),
+                               model.one_step_placement(y, Ly, time_left, Ly_des, T), swing_side)
+
+    def _clip_step(self, step_x: float, step_y: float, swing_side: float) -> tuple[float, float]:
+        """The step within reach: |x| <= max length, the lateral distance within [min, max] width."""
+        cfg = self.config
+        return (min(max(step_x, -cfg.max_step_length_m), cfg.max_step_length_m),
+                swing_side * min(max(swing_side * step_y, cfg.min_step_width_m), cfg.max_step_width_m))
+
+    def _time_left_to_fit(self, x: float, L: float, L_des: float, bound: float, step: float, time_left: float,
+                          earliest: float) -> float:
+        """Time to touchdown at which the one-step law's `step` on one axis comes within the reach `bound`
+        it was clipped to: the latest such time from `earliest` on, else `earliest` if that brings it closer."""
+        model, T = self.alip, self.config.timing.step_duration_s
+        fit = model.time_left_for_step(x, L, L_des, T, bound, earliest, time_left)
+        if fit is not None:
+            return fit
+        closer = abs(model.one_step_placement(x, L, earliest, L_des, T) - bound) < abs(step - bound)
+        return earliest if closer else time_left
 
     # --- failures -------------------------------------------------------------------------------------
 

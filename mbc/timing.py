@@ -1,15 +1,18 @@
-"""Gait phase and step timing: a fixed nominal period, with touchdown detected from contact.
+"""Gait phase and step timing: a nominal period, with touchdown detected from contact.
 
-A step starts when the swing foot touches down. Within a step the phase s = (t - t_start) / T
-runs from 0 to 1. Touchdown is accepted once s >= `early_touchdown_phase` (early touchdown ends
-the step where it happens); if the swing foot has not touched down by s = 1 the step goes on
-(late touchdown: the swing trajectory keeps lowering the foot) until contact or
-`late_touchdown_phase`, when the step is ended regardless. The clock follows the observed robot:
-it only needs the time and the contact flags, so it can be started mid-gait.
+A step starts when the swing foot touches down. Within a step the phase s runs from 0 to 1 at the
+pace 1 / T. `retime` changes the time left in the step (step-timing adaptation) by changing the
+pace from then on, so the phase, and with it the swing profile, stays continuous. Touchdown is
+accepted once s >= `early_touchdown_phase` (early touchdown ends the step where it happens); if the
+swing foot has not touched down by s = 1 the step goes on (late touchdown: the swing trajectory
+keeps lowering the foot) until contact or `late_touchdown_phase`, when the step is ended
+regardless. The clock follows the observed robot: it only needs the time and the contact flags, so
+it can be started mid-gait.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,10 +32,14 @@ class TimingConfig:
     """Earliest phase at which swing-foot contact ends the step."""
     late_touchdown_phase: float = 1.4
     """Phase at which the step ends even without swing-foot contact."""
+    min_step_duration_s: float = 0.25
+    """Fastest pace `retime` may set: the rest of a step takes at least (1 - s) times this [s]."""
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.step_duration_s) and self.step_duration_s > 0):
             raise ConfigError(f"step_duration_s must be positive, got {self.step_duration_s}")
+        if not 0 < self.min_step_duration_s <= self.step_duration_s:
+            raise ConfigError(f"need 0 < min_step_duration_s <= step_duration_s, got {self.min_step_duration_s}")
         if not 0 < self.early_touchdown_phase <= 1 <= self.late_touchdown_phase:
             raise ConfigError("need 0 < early_touchdown_phase <= 1 <= late_touchdown_phase, got "
                               f"{self.early_touchdown_phase}, {self.late_touchdown_phase}")
@@ -45,8 +52,11 @@ class GaitClock:
         self.config = config or TimingConfig()
         self.stance = LEFT
         self.step_start_s = 0.0
+        """When the current step began (its touchdown) [s]."""
         self.step_duration_s = self.config.step_duration_s
+        """The current pace: the phase advances by 1 per this many seconds [s]."""
         self.time_s = 0.0
+        self._anchor_phase, self._anchor_time_s = 0.0, 0.0  # the phase at the last pace change
         self.touchdowns = 0
         """Number of stance switches since `reset`."""
 
@@ -58,6 +68,7 @@ class GaitClock:
         self.time_s = time_s
         self.step_duration_s = self.config.step_duration_s
         self.step_start_s = time_s - phase * self.step_duration_s
+        self._anchor_phase, self._anchor_time_s = phase, time_s
         self.touchdowns = 0
 
     @property
@@ -66,8 +77,8 @@ class GaitClock:
 
     @property
     def phase(self) -> float:
-        """Phase of the current step, 0 at its start, 1 at its nominal end (may exceed 1 when late)."""
-        return (self.time_s - self.step_start_s) / self.step_duration_s
+        """Phase of the current step, 0 at its start, 1 at its planned end (may exceed 1 when late)."""
+        return self._anchor_phase + (self.time_s - self._anchor_time_s) / self.step_duration_s
 
     @property
     def time_in_step_s(self) -> float:
@@ -77,7 +88,7 @@ class GaitClock:
     @property
     def time_to_touchdown_s(self) -> float:
         """Planned time left in the current step (0 once late) [s]."""
-        return max(self.step_start_s + self.step_duration_s - self.time_s, 0.0)
+        return max((1.0 - self.phase) * self.step_duration_s, 0.0)
 
     def update(self, time_s: float, contact: np.ndarray) -> bool:
         """Advance to `time_s` with contact flags (left, right); True when a new step starts."""
@@ -88,15 +99,21 @@ class GaitClock:
             self.stance = self.swing
             self.step_start_s = time_s
             self.step_duration_s = self.config.step_duration_s
+            self._anchor_phase, self._anchor_time_s = 0.0, time_s
             self.touchdowns += 1
             return True
         return False
 
-    def set_step_duration(self, duration_s: float) -> None:
-        """Change the current step's planned duration (step-timing adaptation, e.g. by the MPC)."""
-        if not (np.isfinite(duration_s) and duration_s > 0):
-            raise ConfigError(f"step duration must be positive, got {duration_s}")
-        self.step_duration_s = duration_s
+    def retime(self, time_left_s: float) -> None:
+        """Plan the touchdown `time_left_s` from now, keeping the phase continuous (new pace
+        (1 - s) / time_left). The pace is capped at `min_step_duration_s`; a late step is left as is."""
+        if not (math.isfinite(time_left_s) and time_left_s > 0):
+            raise ConfigError(f"time left must be positive, got {time_left_s}")
+        s = self.phase
+        if s >= 1.0:
+            return
+        self._anchor_phase, self._anchor_time_s = s, self.time_s
+        self.step_duration_s = max(time_left_s / (1.0 - s), self.config.min_step_duration_s)
 
     def observation(self) -> np.ndarray:
         """(4,) policy features: sin/cos of the two-step gait phase, stance one-hot (left, right)."""

@@ -43,6 +43,30 @@ def test_survives_a_lateral_push_mid_stance(controller):
     assert not episode.fell
 
 
+def test_a_step_beyond_reach_is_taken_sooner():
+    """A sideways shove toward the swing foot (as after a push): the one-step law's step is wider than
+    the reach, so it is clipped; with step-timing adaptation the touchdown also comes sooner."""
+    sim = DigitSim(seed=2)
+    run_episode(sim, AlipController.for_digit(), Command(0.2, 0.0, 0.0), 1.6)
+    state = sim.state()
+    assert state.contact.sum() == 1
+    swing_side = 1.0 if state.contact[1] else -1.0  # the swing foot is on the left (+1) or right
+    state.base_linvel = state.base_linvel + np.array([0.0, 0.8 * swing_side, 0.0])
+    outcome = {}
+    for adapt in (False, True):
+        controller = AlipController.for_digit(adapt_step_timing=adapt)
+        controller.reset(state)
+        before = controller.clock.time_to_touchdown_s
+        controller.act(state, Command(0.2, 0.0, 0.0))
+        d = controller.last_diagnostics
+        width = abs(d.foot_target_world[1] - d.stance_sole_world[1])  # heading along +x here
+        outcome[adapt] = (before, controller.clock.time_to_touchdown_s, width)
+    (before, fixed_left, fixed_width), (_, adaptive_left, adaptive_width) = outcome[False], outcome[True]
+    reach = AlipController.for_digit().config.max_step_width_m
+    assert fixed_left == pytest.approx(before) and fixed_width == pytest.approx(reach, abs=0.01)
+    assert adaptive_left < 0.9 * before and adaptive_width == pytest.approx(reach, abs=0.01)
+
+
 def test_takes_over_mid_gait_from_another_run():
     sim = DigitSim(seed=2)
     episode = run_episode(sim, AlipController.for_digit(), Command(0.3, 0.0, 0.0), 1.73)

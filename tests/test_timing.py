@@ -38,6 +38,28 @@ def test_late_touchdown_waits_for_contact_then_forces_a_switch():
     assert gait.update(0.5 + 0.61, RIGHT_ONLY) and gait.stance == LEFT  # forced at phase 1.5
 
 
+def test_retime_keeps_the_phase_and_plans_the_touchdown():
+    gait = clock()
+    gait.update(0.1, LEFT_ONLY)  # phase 0.25, 0.3 s left
+    gait.retime(0.2)
+    assert gait.phase == pytest.approx(0.25) and gait.time_to_touchdown_s == pytest.approx(0.2)
+    gait.update(0.2, LEFT_ONLY)  # half of the time left: half of the phase left
+    assert gait.phase == pytest.approx(0.625) and gait.time_in_step_s == pytest.approx(0.2)
+    assert gait.update(0.25, BOTH) and gait.step_duration_s == 0.4  # the next step is at the nominal pace
+
+
+def test_retime_caps_the_pace_and_leaves_a_late_step():
+    gait = clock(min_step_duration_s=0.3)
+    gait.update(0.2, LEFT_ONLY)  # phase 0.5
+    gait.retime(0.05)  # faster than a 0.3 s step: capped at (1 - 0.5) 0.3 s
+    assert gait.time_to_touchdown_s == pytest.approx(0.15)
+    gait.update(0.4, LEFT_ONLY)  # late
+    gait.retime(0.05)
+    assert gait.time_to_touchdown_s == 0.0 and gait.phase > 1
+    with pytest.raises(ConfigError, match="positive"):
+        gait.retime(0.0)
+
+
 def test_reset_mid_gait_and_observation():
     gait = GaitClock()
     gait.reset(3.0, RIGHT, phase=0.5)
@@ -54,6 +76,8 @@ def test_reset_mid_gait_and_observation():
 def test_bad_config():
     with pytest.raises(ConfigError, match="step_duration_s"):
         TimingConfig(step_duration_s=0.0)
+    with pytest.raises(ConfigError, match="min_step_duration_s"):
+        TimingConfig(min_step_duration_s=0.5)
     with pytest.raises(ConfigError, match="early_touchdown_phase"):
         TimingConfig(early_touchdown_phase=1.2)
     with pytest.raises(ConfigError, match="stance"):
