@@ -47,6 +47,8 @@ class Args:
     push_time: float = 4.0
     push_duration: float = 0.2
     foot_placement: Literal["one_step", "mpc"] = "one_step"
+    adapt_step_timing: bool = True
+    """Touch down sooner when the one-step law's step is beyond reach (after a push)."""
     viewer: bool = False
     """Open the passive MuJoCo viewer (needs a display)."""
     out: Path | None = None
@@ -60,7 +62,7 @@ def terrain_params(args: Args) -> dict:
 
 def main(args: Args) -> dict:
     sim = DigitSim(args.terrain, seed=args.seed, viewer=args.viewer, **terrain_params(args))
-    controller = AlipController.for_digit(foot_placement=args.foot_placement)
+    controller = AlipController.for_digit(foot_placement=args.foot_placement, adapt_step_timing=args.adapt_step_timing)
     pushes = [Push(args.push_time, args.push_force, args.push_duration)] if args.push_force else []
     progress = tqdm(total=int(round(args.duration / sim.dt)), desc="walking", unit="tick", leave=False, disable=None)
     with warnings.catch_warnings(record=True) as caught:
