@@ -16,6 +16,7 @@ import os
 import time
 import warnings
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -41,6 +42,8 @@ class Args:
     corrupt_states: int = 10_000
     speed_runs: int = 3
     """Back-to-back timing runs of the speed suite."""
+    plots: Path | None = None
+    """Directory for figures (the push suite's recovery map)."""
 
 
 def perturbed_start(sim: DigitSim, seed: int) -> RobotState:
@@ -66,7 +69,8 @@ def _walk(job: tuple) -> dict:
     since = 3.0 if isinstance(commands, Command) else commands[-1][0] + 2.0
     mean = episode.mean_velocity(since_s=since)
     tracked = not episode.fell and all(within(m, cmd) for m, cmd in zip(mean, final.as_array()))
-    return {"label": label, "fell": episode.fell, "tracked": tracked, "mean": mean, "final": final.as_array(),
+    return {"label": label, "seed": seed, "push_n": max((float(np.linalg.norm(p.force_n)) for p in pushes), default=0.0),
+            "fell": episode.fell, "tracked": tracked, "mean": mean, "final": final.as_array(),
             "x_end": episode.base_pos[-1][0], "fallbacks": controller.fallback_count}
 
 
@@ -118,7 +122,38 @@ def suite_push(args: Args) -> None:
     for force in (150.0, 200.0):
         for adapt in (True, False):
             jobs += jobs_for(force, ("left", "right"), {"adapt_step_timing": adapt}, "" if adapt else ", fixed timing")
-    _report("stronger sideways pushes: step-timing adaptation against fixed step timing", _run_jobs(jobs, args.workers))
+    strong = _run_jobs(jobs, args.workers)
+    _report("stronger sideways pushes: step-timing adaptation against fixed step timing", strong)
+    if args.plots is not None:
+        print(f"   recovery map: {_plot_push_recovery(strong, args.seeds, args.plots / 'push_recovery.png')}")
+
+
+def _plot_push_recovery(results: list[dict], seeds: int, path: Path) -> Path:
+    """Survived (filled) or fell (open) against push phase and force, fixed against adaptive timing."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.6), sharey=True)
+    for ax, fixed in zip(axes, (True, False)):
+        rows = [r for r in results if r["label"].endswith("fixed timing") == fixed]
+        for side, offset, color in (("left", 0.04, "tab:blue"), ("right", -0.04, "tab:orange")):
+            for r in (r for r in rows if f" {side} " in r["label"]):
+                ax.scatter(r["seed"] / seeds, r["push_n"] * (1 + offset), s=60, color=color,
+                           facecolors="none" if r["fell"] else color)
+        ax.set_title(f"{'fixed' if fixed else 'adaptive'} step timing: "
+                     f"{sum(not r['fell'] for r in rows)}/{len(rows)} without a fall")
+        ax.set_xlabel("push start after t = 3 s [two-step cycles]")
+    axes[0].set_ylabel("sideways push for 0.2 s [N]")
+    axes[0].set_yticks(sorted({r["push_n"] for r in results}))
+    markers = [plt.Line2D([], [], marker="o", linestyle="", color=color) for color in ("tab:blue", "tab:orange")]
+    fig.legend(markers, ["push to the left", "push to the right (open marker: fell)"], loc="lower center", ncol=2)
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def suite_terrain(args: Args) -> None:
