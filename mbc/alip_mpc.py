@@ -42,7 +42,7 @@ class AlipMpcConfig:
     min_step_duration_s: float = 0.25
     max_step_duration_s: float = 0.45
     min_time_left_s: float = 0.03
-    """Shortest time the current step may still take [s] (the swing foot must get there)."""
+    """Shortest time to which the MPC may shorten the current step [s] (the swing foot must get there)."""
     max_step_length_m: float = 0.6
     """Bound on the sagittal step |u^x| [m]."""
     min_step_width_m: float = 0.12
@@ -136,7 +136,7 @@ class AlipMpc:
                 raise ConfigError(f"{name} must be finite, got {value}")
         if stance_sign not in (1, -1):
             raise ConfigError(f"stance_sign must be +1 (left stance) or -1 (right stance), got {stance_sign}")
-        time_left = max(cfg.step_duration_s - time_in_step_s, cfg.min_time_left_s)
+        time_left = max(cfg.step_duration_s - time_in_step_s, 0.0)
         tau_nom = np.r_[time_left, np.full(n, cfg.step_duration_s)]
         sides = -stance_sign * (-1.0) ** np.arange(n)  # lateral direction of each step
         width = (cfg.min_step_width_m + cfg.max_step_width_m) / 2
@@ -148,7 +148,8 @@ class AlipMpc:
         if fixed_timing:
             lower_tau = upper_tau = tau_nom
         else:
-            lower_tau = np.r_[max(cfg.min_step_duration_s - time_in_step_s, cfg.min_time_left_s),
+            # a step already closer to its nominal end than min_time_left is not lengthened to it
+            lower_tau = np.r_[min(time_left, max(cfg.min_step_duration_s - time_in_step_s, cfg.min_time_left_s)),
                               np.full(n, cfg.min_step_duration_s)]
             upper_tau = np.r_[max(cfg.max_step_duration_s - time_in_step_s, cfg.min_time_left_s),
                               np.full(n, cfg.max_step_duration_s)]

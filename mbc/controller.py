@@ -321,7 +321,8 @@ class AlipController:
             signs = next_stance_sign * (-1.0) ** np.arange(self.mpc.config.horizon_steps)
             sequence = np.c_[np.full(len(signs), Lx_des), Ly_mean - signs * self._lateral_gait_momentum]
             solution = self.mpc.solve(alip.x, alip.L, clock.time_in_step_s, -int(swing_side), sequence)
-            clock.retime(solution.time_left_s)
+            if solution.time_left_s > 0.0:
+                clock.retime(solution.time_left_s)
             step_x, step_y = solution.steps_m[0].tolist()
             return self._clip_step(step_x, step_y, swing_side)
         (x, y), (Lx, Ly) = alip.x.tolist(), alip.L.tolist()

@@ -38,6 +38,16 @@ def test_matches_one_step_law_without_active_bounds(mpc, fixed_timing):
     assert solution.time_left_s == pytest.approx(T - elapsed, abs=1e-4)
 
 
+@pytest.mark.parametrize("fixed_timing", [True, False])
+def test_a_step_near_its_end_is_not_lengthened_to_the_time_floor(mpc, fixed_timing):
+    """0.01 s before the nominal touchdown the plan keeps 0.01 s (not `min_time_left_s`): planning
+    with a longer time each tick moved the landing forward and walked 18% below the command."""
+    x_now, L_now, elapsed = np.array([0.05, -0.1]), np.array([MODEL.mz * 0.35, -10.0]), T - 0.01
+    solution = mpc.solve(x_now, L_now, elapsed, +1, desired(+1), fixed_timing=fixed_timing)
+    assert solution.success and mpc.config.min_time_left_s > 0.01
+    assert solution.time_left_s == pytest.approx(0.01, abs=1e-4)
+
+
 def test_step_bounds_bind_and_timing_adapts(mpc):
     """A large forward push: the step hits its length bound, and the MPC shortens the step to help."""
     x_now, L_now, elapsed = np.array([0.1, -0.1]), np.array([MODEL.mz * 2.0, 0.0]), 0.05
