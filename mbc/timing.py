@@ -105,8 +105,9 @@ class GaitClock:
         return False
 
     def retime(self, time_left_s: float) -> None:
-        """Plan the touchdown `time_left_s` from now, keeping the phase continuous (new pace
-        (1 - s) / time_left). The pace is capped at `min_step_duration_s`; a late step is left as is."""
+        """Plan the touchdown `time_left_s` from now, keeping the phase continuous: from here the phase
+        runs at (1 - s) / time_left per second, at most as fast as in a step of `min_step_duration_s`.
+        A late step (s >= 1) is left as it is."""
         if not (math.isfinite(time_left_s) and time_left_s > 0):
             raise ConfigError(f"time left must be positive, got {time_left_s}")
         s = self.phase
