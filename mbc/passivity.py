@@ -11,7 +11,7 @@ with J_sole the sole frame's LOCAL Jacobian and G (6 x 12, constant) the wrench 
 origin of the corner forces. The QP keeps only what the torques cannot absorb:
 
     (M a + h - J_c^T G f)_base = 0                           (6 rows: the unactuated floating base)
-    |f_t| <= mu f_n componentwise, f_n >= 0 (sole frame)     (friction pyramid; corners: CoP in the foot)
+    |f_t| <= mu f_n componentwise (sole frame)               (friction pyramid; corners: CoP in the foot)
     -tau_max <= T x + t0 <= tau_max
 
     min  |a_j - a_r|^2 + w_c sum_stance |J_foot a + Jdot_foot v + k_c v_foot|^2
@@ -19,7 +19,14 @@ origin of the corner forces. The QP keeps only what the torques cannot absorb:
 
 This is the problem with explicit torques and zero swing forces, with those variables substituted
 out: 30 variables in single support, 42 in double (54 before), which matters because proxsuite
-refactorizes the KKT system whenever a matrix changes, every tick. One solver per contact count
+refactorizes the KKT system whenever a matrix changes, every tick. f_n >= 0 needs no row of its
+own: f_x <= mu f_n and -f_x <= mu f_n add up to it.
+
+Every cost term but the diagonal ones is a weighted least-squares residual, so the assembly stacks
+them into one matrix R x + r (the 12 torque rows, then 6 contact-acceleration rows per stance foot)
+and forms H = R^T W R + H_diag, g = R^T W r + g_joints with one product each. Numpy's per-call cost,
+not arithmetic, dominates at this size (and each call evicts the others' code from the instruction
+cache), so the tick keeps the number of numpy calls low. One solver per contact count
 is kept, each warm-started from its own last solution, without Ruiz equilibration: the problem
 is in acceleration and force units already, and equilibrating it cost 40% of the solve time while
 the walking solves take ~1 iteration either way.
@@ -55,7 +62,7 @@ from robots.digit import constants as c
 NV = 6 + c.NUM_JOINTS
 NUM_CORNERS = 4
 FORCES_PER_FOOT = 3 * NUM_CORNERS
-PYRAMID_ROWS = 5
+PYRAMID_ROWS = 4
 A_SLICE = slice(0, NV)
 """The generalized acceleration in the decision vector; the corner forces follow it."""
 _SOLVED = proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
@@ -200,6 +207,11 @@ class _Template:
     pyramid_upper: np.ndarray
     joint_gradient: np.ndarray
     """(12,) -joint weights: the gradient of the tracking cost is this times a_r."""
+    wrench_map: np.ndarray
+    """(6 n_c, 12 n_c) block diagonal of -G: the stacked sole Jacobians' transpose times this is the
+    force columns of the dynamics, -J_c^T G."""
+    residual_weights: np.ndarray
+    """(12 + 6 n_c,) W: w_tau on the torque rows, w_c on the contact-acceleration rows."""
 
 
 class PassivityQp:
@@ -208,7 +220,6 @@ class PassivityQp:
     def __init__(self, config: PassivityConfig | None = None) -> None:
         self.config = cfg = config or PassivityConfig()
         self._damping = np.tile(np.asarray(cfg.damping, dtype=float), 2)
-        self._negative_wrench_map = -corner_wrench_map(sole_corners())
         self._templates: dict[tuple[int, ...], _Template] = {}  # per contact set, built on first use
         self._solvers = {n: self._new_solver(n) for n in (1, 2)}
         self._initialized = {1: False, 2: False}
@@ -222,12 +233,15 @@ class PassivityQp:
         diagonal = np.r_[np.full(NV, cfg.base_weight), np.full(n - NV, cfg.force_weight)]
         diagonal[joints_v] = joint_weights
         mu = cfg.friction
-        pyramid = np.array([[1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu], [0, 0, -1.0]])  # on (f_x, f_y, f_z)
+        pyramid = np.array([[1, 0, -mu], [-1, 0, -mu], [0, 1, -mu], [0, -1, -mu]])  # on (f_x, f_y, f_z); implies f_z >= 0
         corners = NUM_CORNERS * len(feet)
         rows = np.zeros((PYRAMID_ROWS * corners, n))
         rows[:, NV:] = np.kron(np.eye(corners), pyramid)
         return _Template(H=np.diag(diagonal), pyramid=rows, pyramid_lower=np.full(len(rows), -np.inf),
-                         pyramid_upper=np.zeros(len(rows)), joint_gradient=-joint_weights)  # C f <= 0
+                         pyramid_upper=np.zeros(len(rows)), joint_gradient=-joint_weights,  # C f <= 0
+                         wrench_map=np.kron(np.eye(len(feet)), -corner_wrench_map(sole_corners())),
+                         residual_weights=np.r_[np.full(c.NUM_JOINTS, cfg.torque_weight),
+                                                np.full(6 * len(feet), cfg.contact_weight)])
 
     def _new_solver(self, feet_in_contact: int) -> proxsuite.proxqp.dense.QP:
         cfg = self.config
@@ -261,35 +275,34 @@ class PassivityQp:
         M = pin.crba(model, data, q)
         h = pin.nonLinearEffects(model, data, q, v)
         pin.computeJointJacobians(model, data)  # from the placements of robot.update
-        v_joints = v[joints_v]
-        sliding = v_joints - qd_des - cfg.sliding_gain * (q_des - q[joints_q])
-        a_ref = qdd_des + cfg.sliding_gain * (qd_des - v_joints)
+        velocity_error = v[joints_v] - qd_des
+        sliding = velocity_error - cfg.sliding_gain * (q_des - q[joints_q])
+        a_ref = qdd_des - cfg.sliding_gain * velocity_error
 
-        n = len(template.H)
-        dynamics = np.empty((NV, n))  # M a - J_c^T G f; the dynamics are dynamics @ x + h = S^T tau
-        dynamics[:, :NV] = M
-        contact_hessian, contact_gradient, rotations = 0.0, 0.0, []
+        # rows: the dynamics M a - J_c^T G f (= S^T tau - h), then J_foot a per stance foot; rhs: h, then
+        # the contact drift Jdot v + k_c v_foot (sole axes: the same norm as world axes)
+        rows = np.zeros((NV + 6 * len(feet), len(template.H)))
+        rhs = np.empty(len(rows))
+        rows[:NV, :NV] = M
+        rhs[:NV] = h
+        rotations = []
         for k, side in enumerate(feet):
-            frame = robot.sole_ids[side]
-            jacobian = pin.getFrameJacobian(model, data, frame, pin.LOCAL)
-            dynamics[:, NV + FORCES_PER_FOOT * k: NV + FORCES_PER_FOOT * (k + 1)] = jacobian.T @ self._negative_wrench_map
-            # |J a + Jdot v + k_c v|^2 in the sole's axes: the same norm as in world axes
-            drift = pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL).vector
-            velocity = pin.getFrameVelocity(model, data, frame, pin.LOCAL).vector
-            weighted = cfg.contact_weight * jacobian.T
-            contact_hessian = contact_hessian + weighted @ jacobian
-            contact_gradient = contact_gradient + weighted @ (drift + cfg.contact_damping * velocity)
+            frame, contact_rows = robot.sole_ids[side], slice(NV + 6 * k, NV + 6 * k + 6)
+            rows[contact_rows, :NV] = pin.getFrameJacobian(model, data, frame, pin.LOCAL)
+            rhs[contact_rows] = (pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL).vector
+                                 + cfg.contact_damping * pin.getFrameVelocity(model, data, frame, pin.LOCAL).vector)
             rotations.append(data.oMf[frame].rotation)
+        np.matmul(rows[NV:, :NV].T, template.wrench_map, out=rows[:NV, NV:])
 
-        torque_map, torque_offset = dynamics[joints_v], h[joints_v]
-        weighted = cfg.torque_weight * torque_map.T
-        H = weighted @ torque_map + template.H
-        H[:NV, :NV] += contact_hessian
-        g = weighted @ torque_offset
-        g[:NV] += contact_gradient
+        residual_rows = rows[6:]  # tau = T x + t0 (weight w_tau), then the contact accelerations (w_c)
+        weighted = residual_rows.T * template.residual_weights
+        H = weighted @ residual_rows
+        H += template.H
+        g = weighted @ rhs[6:]
         g[joints_v] += template.joint_gradient * a_ref
+        torque_map, torque_offset = rows[6:NV], h[joints_v]
         problem = QpProblem(
-            H=H, g=g, A=dynamics[:6], b=-h[:6], C=np.concatenate((template.pyramid, torque_map)),
+            H=H, g=g, A=rows[:6], b=-h[:6], C=np.concatenate((template.pyramid, torque_map)),
             l=np.concatenate((template.pyramid_lower, -c.TORQUE_LIMIT_NM - torque_offset)),
             u=np.concatenate((template.pyramid_upper, c.TORQUE_LIMIT_NM - torque_offset)), feet=feet,
             sole_rotations=tuple(rotations), torque_map=torque_map, torque_offset=torque_offset)
@@ -311,7 +324,8 @@ class PassivityQp:
         solved = results.info.status == _SOLVED and math.isfinite(x @ x)
         tau_qp = problem.torque_map @ x + problem.torque_offset
         joints_v = robot.joint_map.v
-        coriolis = pin.computeCoriolisMatrix(robot.model, robot.data, robot.q, robot.v)[joints_v][:, joints_v]
+        block = (joints_v, joints_v) if isinstance(joints_v, slice) else np.ix_(joints_v, joints_v)
+        coriolis = pin.computeCoriolisMatrix(robot.model, robot.data, robot.q, robot.v)[block]
         tau = tau_qp - coriolis @ sliding - self._damping * sliding
         tau = np.minimum(np.maximum(tau, -c.TORQUE_LIMIT_NM), c.TORQUE_LIMIT_NM)
         return QpResult(tau=tau, tau_qp=tau_qp, decision=x, solved=solved, iterations=int(results.info.iter), problem=problem)

@@ -129,8 +129,8 @@ def test_friction_rows_are_the_pyramid_of_each_corner_in_its_sole_frame(moving, 
     for k in range(len(problem.feet)):
         for corner in range(4):
             fx, fy, fz = x[NV + 12 * k + 3 * corner: NV + 12 * k + 3 * corner + 3]
-            expected = [fx - mu * fz, -fx - mu * fz, fy - mu * fz, -fy - mu * fz, -fz]
-            np.testing.assert_allclose(rows[20 * k + 5 * corner: 20 * k + 5 * corner + 5], expected, atol=1e-12)
+            expected = [fx - mu * fz, -fx - mu * fz, fy - mu * fz, -fy - mu * fz]
+            np.testing.assert_allclose(rows[16 * k + 4 * corner: 16 * k + 4 * corner + 4], expected, atol=1e-12)
     assert np.all(problem.u[:-12] == 0) and np.all(problem.l[:-12] == -np.inf)
 
 
@@ -152,3 +152,32 @@ def test_a_result_is_not_changed_by_the_next_solve(standing):
     second = qp.solve(standing, *qp.build(standing, contact, standing.q[7:], np.full(12, 0.5), np.zeros(12)))
     assert np.abs(second.decision - decision).max() > 1e-3  # a different problem (a_r follows qd_des)
     np.testing.assert_array_equal(first.decision, decision)
+
+
+@pytest.mark.parametrize("contact", [(True, True), (False, True)])
+def test_quadratic_form_is_the_stated_cost(moving, rng, contact):
+    """x'Hx/2 + g'x equals the module docstring's cost, evaluated term by term, up to a constant."""
+    qp = PassivityQp()
+    q_des, qd_des, qdd_des = moving.q[7:] + rng.normal(0, 0.05, 12), rng.normal(size=12), rng.normal(size=12)
+    problem, _ = qp.build(moving, np.array(contact), q_des, qd_des, qdd_des)
+    cfg, model, data = qp.config, moving.model, moving.data
+    a_ref = qdd_des + cfg.sliding_gain * (qd_des - moving.v[6:])
+    joint_weights = np.full(12, cfg.joint_weight)
+    if len(problem.feet) == 1:  # the stance ankle's pitch and roll track loosely
+        joint_weights[6 * problem.feet[0] + 4: 6 * problem.feet[0] + 6] *= cfg.stance_ankle_weight
+
+    def cost(x):
+        a, total = x[:NV], 0.0
+        for side in problem.feet:
+            frame = moving.sole_ids[side]
+            foot_acceleration = (pin.getFrameJacobian(model, data, frame, pin.LOCAL) @ a
+                                 + pin.getFrameClassicalAcceleration(model, data, frame, pin.LOCAL).vector
+                                 + cfg.contact_damping * pin.getFrameVelocity(model, data, frame, pin.LOCAL).vector)
+            total += cfg.contact_weight * foot_acceleration @ foot_acceleration
+        tau = problem.torque_map @ x + problem.torque_offset
+        return 0.5 * (total + joint_weights @ (a[6:] - a_ref) ** 2 + cfg.base_weight * a[:6] @ a[:6]
+                      + cfg.force_weight * x[NV:] @ x[NV:] + cfg.torque_weight * tau @ tau)
+
+    samples = [rng.normal(size=len(problem.g)) * 10 for _ in range(5)]
+    offsets = [cost(x) - (0.5 * x @ problem.H @ x + problem.g @ x) for x in samples]
+    np.testing.assert_allclose(offsets, offsets[0], rtol=1e-9, atol=1e-6)
