@@ -31,9 +31,13 @@ def alip_state(robot: PinRobot, contact_point_world: np.ndarray, yaw: float) -> 
     heading frame (scalar maths: this runs every control tick).
     """
     cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
-    rx, ry, rz = (robot.data.com[0] - contact_point_world).tolist()
-    Lx, Ly, _ = robot.angular_momentum_about(contact_point_world).tolist()
-    vx, vy, vz = robot.com_velocity.tolist()
+    px, py, pz = contact_point_world.tolist()
+    cx, cy, cz = robot.data.com[0].tolist()
+    hg = robot.data.hg
+    (hx, hy, hz), (kx, ky, _) = hg.linear.tolist(), hg.angular.tolist()  # linear momentum, angular about the CoM
+    rx, ry, rz = cx - px, cy - py, cz - pz
+    Lx, Ly = kx + ry * hz - rz * hy, ky + rz * hx - rx * hz  # about the contact: k + r x h
+    vx, vy, vz = hx / robot.mass, hy / robot.mass, hz / robot.mass
     return AlipState(
         x=np.array([cos_yaw * rx + sin_yaw * ry, -sin_yaw * rx + cos_yaw * ry]),
         L=np.array([-sin_yaw * Lx + cos_yaw * Ly, -(cos_yaw * Lx + sin_yaw * Ly)]),

@@ -160,7 +160,7 @@ class AlipController:
             cfg.mpc, step_duration_s=cfg.timing.step_duration_s, max_step_length_m=cfg.max_step_length_m,
             min_step_width_m=cfg.min_step_width_m, max_step_width_m=cfg.max_step_width_m)) \
             if cfg.foot_placement == "mpc" else None
-        self._kp, self._kd = np.asarray(cfg.kp, float), np.asarray(cfg.kd, float)
+        self._kp, self._kd = np.asarray(cfg.kp, float).tolist(), np.asarray(cfg.kd, float).tolist()
         self._gravity_z = float(self.robot.model.gravity.linear[2])  # -9.81 m/s^2
         self._zero_joint_acceleration = np.zeros(c.NUM_JOINTS)  # qdd_des: the IK gives positions and velocities
         T = cfg.timing.step_duration_s  # the gait's step-end targets are linear in the command:
@@ -258,19 +258,19 @@ class AlipController:
         t_ik = time.perf_counter()
         if not all(map(math.isfinite, ik.q_des.tolist() + ik.qd_des.tolist())):
             return self._fallback(state, command, clipped, start, reason="IK returned non-finite targets")
-        contact = np.zeros(2, dtype=bool)
-        contact[stance] = True
-        contact[swing] = bool(state.contact[swing]) and phase < 0.1  # double support just after touchdown
+        swing_loaded = bool(state.contact[swing]) and phase < 0.1  # double support just after touchdown
+        contact = (True, swing_loaded) if stance == LEFT else (swing_loaded, True)
         problem, sliding = self.qp.build(robot, contact, ik.q_des, ik.qd_des, self._zero_joint_acceleration)
         result = self.qp.solve(robot, problem, sliding)
         t_qp = time.perf_counter()
         if not result.solved:
             return self._fallback(state, command, clipped, start, reason="QP not solved", qp_iterations=result.iterations)
         tau = result.tau
-        if cfg.output == "pd":
+        if cfg.output == "pd":  # q_cmd = q + (tau - kd (qd_cmd - qd)) / kp, in scalars (12 values)
             qd_cmd = ik.qd_des
-            q_cmd = state.q + (tau - self._kd * (qd_cmd - state.qd)) / self._kp
-            joint_command = JointCommand(q_des=q_cmd, qd_des=qd_cmd)
+            q_cmd = [q + (torque - kd * (qd_des - qd)) / kp for q, torque, qd_des, qd, kp, kd
+                     in zip(state.q.tolist(), tau.tolist(), qd_cmd.tolist(), state.qd.tolist(), self._kp, self._kd)]
+            joint_command = JointCommand(q_des=np.array(q_cmd), qd_des=qd_cmd)
         else:
             joint_command = JointCommand(q_des=state.q.copy(), qd_des=state.qd.copy(), tau_ff=tau)
         self._last_q_des = ik.q_des
@@ -280,8 +280,8 @@ class AlipController:
             com_height_error_m=float(alip.com_height - cfg.com_height_m),
             com_vertical_velocity_mps=float(alip.com_velocity[2]),
             com_vertical_acceleration_mps2=float(com_vertical_acceleration),
-            stance_slip_speed_mps=math.hypot(*robot.sole_velocity(stance)[:2].tolist()),
-            centroidal_angular_momentum=math.hypot(*robot.centroidal_angular_momentum.tolist()),
+            stance_slip_speed_mps=robot.sole_horizontal_speed(stance),
+            centroidal_angular_momentum=math.hypot(*robot.data.hg.angular.tolist()),
             qp_solved=True, torque_saturation=saturation(tau, c.TORQUE_LIMIT_NM))
         end = time.perf_counter()
         self.last_diagnostics = ControllerDiagnostics(
@@ -372,9 +372,8 @@ class AlipController:
                                  state.qd)).tolist()
         if not (math.isfinite(state.time) and all(map(math.isfinite, values))):
             return False
-        quat, linvel, angvel = (float(array @ array) for array in (state.base_quat, state.base_linvel, state.base_angvel))
-        return (quat > 1e-12 and linvel < 20.0**2 and angvel < 50.0**2
-                and all(abs(speed) < bound for speed, bound in zip(state.qd.tolist(), _JOINT_SPEED_BOUND)))
+        return (math.hypot(*values[3:7]) > 1e-6 and math.hypot(*values[7:10]) < 20.0 and math.hypot(*values[10:13]) < 50.0
+                and all(abs(speed) < bound for speed, bound in zip(values[25:], _JOINT_SPEED_BOUND)))
 
     def _fallback(self, state: RobotState, command: tuple[float, float, float], clipped: bool, start: float, reason: str,
                   qp_iterations: int = 0) -> JointCommand:

@@ -81,7 +81,7 @@ class IkResult:
     com_height_error_m: float
 
 
-def _pose(position: np.ndarray, yaw: float, normal: np.ndarray) -> np.ndarray:
+def _pose(position: list[float], yaw: float, normal: np.ndarray) -> np.ndarray:
     """Pose with z along `normal` and x along the heading `yaw` projected onto that plane."""
     nx, ny, nz = normal.tolist()
     hx, hy = math.cos(yaw), math.sin(yaw)
@@ -90,7 +90,7 @@ def _pose(position: np.ndarray, yaw: float, normal: np.ndarray) -> np.ndarray:
     norm = math.sqrt(xx * xx + xy * xy + xz * xz)
     xx, xy, xz = xx / norm, xy / norm, xz / norm
     yx, yy, yz = ny * xz - nz * xy, nz * xx - nx * xz, nx * xy - ny * xx  # y = z x x
-    px, py, pz = position.tolist()
+    px, py, pz = position
     return np.array([[xx, yx, nx, px], [xy, yy, ny, py], [xz, yz, nz, pz], [0.0, 0.0, 0.0, 1.0]])
 
 
@@ -134,14 +134,12 @@ class WholeBodyIK:
         self._pelvis_orientation.R_world_frame = yaw_rotation(targets.pelvis_yaw)
         self._com.target_world = np.array([0.0, 0.0, targets.com_height])
 
-    def _set_moving_targets(self, targets: IkTargets, swing_pose: np.ndarray, ahead_s: float) -> None:
-        """Swing sole (`swing_pose` at the tick) and pelvis position, `ahead_s` along their velocities."""
-        if ahead_s:
-            swing_pose = swing_pose.copy()
-            swing_pose[:3, 3] += ahead_s * targets.swing_velocity
-        self._sole_tasks[1 - targets.stance].T_world_frame = swing_pose  # placo copies the targets it is given
-        x, y = (targets.pelvis_xy + ahead_s * targets.pelvis_xy_velocity).tolist()
-        self._pelvis_xy.target_world = np.array([x, y, 0.0])
+    def _set_moving_targets(self, targets: IkTargets, ahead_s: float) -> None:
+        """Swing sole pose and pelvis position, `ahead_s` along their velocities."""
+        (x, y), (vx, vy) = targets.pelvis_xy.tolist(), targets.pelvis_xy_velocity.tolist()
+        self._pelvis_xy.target_world = np.array([x + ahead_s * vx, y + ahead_s * vy, 0.0])  # placo copies its targets
+        swing = [p + ahead_s * v for p, v in zip(targets.swing_position.tolist(), targets.swing_velocity.tolist())]
+        self._sole_tasks[1 - targets.stance].T_world_frame = _pose(swing, targets.swing_yaw, targets.ground_normal)
 
     def solve(self, q_measured: np.ndarray, targets: IkTargets) -> IkResult:
         """IK from the measured pinocchio configuration `q_measured` toward `targets`."""
@@ -151,8 +149,7 @@ class WholeBodyIK:
         self._configure_stance(targets.stance)
         stance_name = c.SOLE_FRAMES[targets.stance]
         self._set_fixed_targets(targets, robot.get_T_world_frame(stance_name))
-        swing_pose = _pose(targets.swing_position, targets.swing_yaw, targets.ground_normal)
-        self._set_moving_targets(targets, swing_pose, 0.0)
+        self._set_moving_targets(targets, 0.0)
         for _ in range(self.config.iterations):
             self.solver.solve(True)
             robot.update_kinematics()
@@ -160,7 +157,7 @@ class WholeBodyIK:
         swing_error = math.dist(robot.get_T_world_frame(c.SOLE_FRAMES[1 - targets.stance])[:3, 3].tolist(),
                                 targets.swing_position.tolist())
         com_error = robot.com_world()[2].item() - targets.com_height
-        self._set_moving_targets(targets, swing_pose, self.dt)
+        self._set_moving_targets(targets, self.dt)
         self.solver.solve(True)
         q_ahead = robot.state.q
         q_des = q_now[self.joint_map.q]

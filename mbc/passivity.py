@@ -66,6 +66,7 @@ PYRAMID_ROWS = 4
 A_SLICE = slice(0, NV)
 """The generalized acceleration in the decision vector; the corner forces follow it."""
 _SOLVED = proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
+_TORQUE_LIMITS = c.TORQUE_LIMIT_NM.tolist()
 
 
 def num_variables(feet_in_contact: int) -> int:
@@ -171,8 +172,12 @@ class QpResult:
     def vertical_force(self) -> float:
         """Sum of the corner forces' world z components [N]: per foot, the sole's z row of R times
         the sum of its corner forces."""
-        return sum(float(rotation[2] @ foot.sum(axis=0))
-                   for rotation, foot in zip(self.problem.sole_rotations, self.problem.sole_frame_forces(self.decision)))
+        forces, total = self.decision[NV:].tolist(), 0.0
+        for k, rotation in enumerate(self.problem.sole_rotations):
+            foot = forces[FORCES_PER_FOOT * k: FORCES_PER_FOOT * (k + 1)]
+            r_zx, r_zy, r_zz = rotation[2].tolist()
+            total += r_zx * sum(foot[0::3]) + r_zy * sum(foot[1::3]) + r_zz * sum(foot[2::3])
+        return total
 
 
 def sole_corners() -> np.ndarray:
@@ -219,7 +224,7 @@ class PassivityQp:
 
     def __init__(self, config: PassivityConfig | None = None) -> None:
         self.config = cfg = config or PassivityConfig()
-        self._damping = np.tile(np.asarray(cfg.damping, dtype=float), 2)
+        self._damping = 2 * [float(gain) for gain in cfg.damping]  # K_D, both legs
         self._templates: dict[tuple[int, ...], _Template] = {}  # per contact set, built on first use
         self._solvers = {n: self._new_solver(n) for n in (1, 2)}
         self._initialized = {1: False, 2: False}
@@ -256,7 +261,7 @@ class PassivityQp:
         qp.settings.initial_guess = proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
         return qp
 
-    def build(self, robot: PinRobot, contact: np.ndarray, q_des: np.ndarray, qd_des: np.ndarray,
+    def build(self, robot: PinRobot, contact: tuple[bool, bool] | np.ndarray, q_des: np.ndarray, qd_des: np.ndarray,
               qdd_des: np.ndarray) -> tuple[QpProblem, np.ndarray]:
         """The QP for the robot's current (q, v) and the sliding variable s (12,).
 
@@ -321,11 +326,12 @@ class PassivityQp:
         qp.solve()
         results = qp.results
         x = results.x.copy()  # results.x is a view that the next solve overwrites
-        solved = results.info.status == _SOLVED and math.isfinite(x @ x)
+        solved = results.info.status == _SOLVED and all(map(math.isfinite, x.tolist()))
         tau_qp = problem.torque_map @ x + problem.torque_offset
         joints_v = robot.joint_map.v
         block = (joints_v, joints_v) if isinstance(joints_v, slice) else np.ix_(joints_v, joints_v)
-        coriolis = pin.computeCoriolisMatrix(robot.model, robot.data, robot.q, robot.v)[block]
-        tau = tau_qp - coriolis @ sliding - self._damping * sliding
-        tau = np.minimum(np.maximum(tau, -c.TORQUE_LIMIT_NM), c.TORQUE_LIMIT_NM)
+        coriolis_feedback = pin.computeCoriolisMatrix(robot.model, robot.data, robot.q, robot.v)[block] @ sliding
+        # tau = tau_QP - C s - K_D s, clipped (in scalars: cheaper than five numpy calls on 12 values)
+        tau = np.array([min(max(torque - feedback - gain * s, -limit), limit) for torque, feedback, gain, s, limit
+                        in zip(tau_qp.tolist(), coriolis_feedback.tolist(), self._damping, sliding.tolist(), _TORQUE_LIMITS)])
         return QpResult(tau=tau, tau_qp=tau_qp, decision=x, solved=solved, iterations=int(results.info.iter), problem=problem)

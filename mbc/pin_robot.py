@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
@@ -57,6 +59,11 @@ class PinRobot:
     def sole_velocity(self, side: int) -> np.ndarray:
         """(6,) sole frame linear and angular velocity, world-aligned axes."""
         return pin.getFrameVelocity(self.model, self.data, self.sole_ids[side], pin.LOCAL_WORLD_ALIGNED).vector.copy()
+
+    def sole_horizontal_speed(self, side: int) -> float:
+        """Horizontal speed of the sole frame origin of foot `side`, world [m/s]."""
+        vx, vy, _ = pin.getFrameVelocity(self.model, self.data, self.sole_ids[side], pin.LOCAL_WORLD_ALIGNED).linear.tolist()
+        return math.hypot(vx, vy)
 
     def angular_momentum_about(self, point_world: np.ndarray) -> np.ndarray:
         """(3,) angular momentum about a fixed world point: L_com + (c - p) x m v_com [kg m^2/s]."""

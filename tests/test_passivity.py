@@ -181,3 +181,16 @@ def test_quadratic_form_is_the_stated_cost(moving, rng, contact):
     samples = [rng.normal(size=len(problem.g)) * 10 for _ in range(5)]
     offsets = [cost(x) - (0.5 * x @ problem.H @ x + problem.g @ x) for x in samples]
     np.testing.assert_allclose(offsets, offsets[0], rtol=1e-9, atol=1e-6)
+
+
+def test_torque_is_the_qp_torque_minus_the_passivity_feedback(moving, rng):
+    """tau = clip(tau_QP - (C s)_joints - K_D s): the Slotine-Li terms on the sliding variable s."""
+    qp = PassivityQp()
+    problem, sliding = qp.build(moving, np.array([True, False]), moving.q[7:] + rng.normal(0, 0.02, 12),
+                                rng.normal(size=12), np.zeros(12))
+    result = qp.solve(moving, problem, sliding)
+    coriolis = pin.computeCoriolisMatrix(moving.model, moving.data, moving.q, moving.v)[6:, 6:]
+    damping = np.tile(qp.config.damping, 2)
+    expected = np.clip(result.tau_qp - coriolis @ sliding - damping * sliding, -c.TORQUE_LIMIT_NM, c.TORQUE_LIMIT_NM)
+    np.testing.assert_allclose(result.tau, expected, atol=1e-9)
+    assert np.abs(sliding).max() > 0.1  # the feedback is not trivially zero
