@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import operator
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -368,12 +369,13 @@ class AlipController:
     @staticmethod
     def _plausible_state(state: RobotState) -> bool:
         """Finite, a usable quaternion, and speeds a walking robot can have (10x the motors' limits)."""
-        values = np.concatenate((state.base_pos, state.base_quat, state.base_linvel, state.base_angvel, state.q,
-                                 state.qd)).tolist()
+        quat, linvel, angvel = state.base_quat.tolist(), state.base_linvel.tolist(), state.base_angvel.tolist()
+        qd = state.qd.tolist()
+        values = state.base_pos.tolist() + quat + linvel + angvel + state.q.tolist() + qd
         if not (math.isfinite(state.time) and all(map(math.isfinite, values))):
             return False
-        return (math.hypot(*values[3:7]) > 1e-6 and math.hypot(*values[7:10]) < 20.0 and math.hypot(*values[10:13]) < 50.0
-                and all(abs(speed) < bound for speed, bound in zip(values[25:], _JOINT_SPEED_BOUND)))
+        return (math.hypot(*quat) > 1e-6 and math.hypot(*linvel) < 20.0 and math.hypot(*angvel) < 50.0
+                and all(map(operator.lt, map(abs, qd), _JOINT_SPEED_BOUND)))
 
     def _fallback(self, state: RobotState, command: tuple[float, float, float], clipped: bool, start: float, reason: str,
                   qp_iterations: int = 0) -> JointCommand:

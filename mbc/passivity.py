@@ -67,6 +67,7 @@ A_SLICE = slice(0, NV)
 """The generalized acceleration in the decision vector; the corner forces follow it."""
 _SOLVED = proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
 _TORQUE_LIMITS = c.TORQUE_LIMIT_NM.tolist()
+_NEGATIVE_TORQUE_LIMIT = -c.TORQUE_LIMIT_NM
 
 
 def num_variables(feet_in_contact: int) -> int:
@@ -308,7 +309,7 @@ class PassivityQp:
         torque_map, torque_offset = rows[6:NV], h[joints_v]
         problem = QpProblem(
             H=H, g=g, A=rows[:6], b=-h[:6], C=np.concatenate((template.pyramid, torque_map)),
-            l=np.concatenate((template.pyramid_lower, -c.TORQUE_LIMIT_NM - torque_offset)),
+            l=np.concatenate((template.pyramid_lower, _NEGATIVE_TORQUE_LIMIT - torque_offset)),
             u=np.concatenate((template.pyramid_upper, c.TORQUE_LIMIT_NM - torque_offset)), feet=feet,
             sole_rotations=tuple(rotations), torque_map=torque_map, torque_offset=torque_offset)
         return problem, sliding

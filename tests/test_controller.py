@@ -1,5 +1,6 @@
 """AlipController in the loop: short walks (the long ones are in benchmarks/), robustness, contracts."""
 
+import copy
 import warnings
 
 import numpy as np
@@ -11,6 +12,7 @@ from mbc.fuzz import random_robot_state
 from mbc.rollout import Push, run_episode
 from mbc.sim import DigitSim
 from mbc.types import Command
+from robots.digit import constants as c
 
 
 @pytest.fixture(scope="module")
@@ -134,3 +136,20 @@ def test_randomized_and_corrupted_states_never_raise(rng):
             for array in (action.q_des, action.qd_des, action.tau_ff):
                 assert np.isfinite(array).all()
     assert controller.fallback_count > 0  # the corrupted ones fell back, and were counted
+
+
+def test_implausible_states_are_recognized():
+    """Each corruption of a standing state is caught by the plausibility check; the state itself passes."""
+    state = DigitSim().reset()
+    assert AlipController._plausible_state(state)
+    corruptions = {
+        "NaN joint": lambda s: s.q.__setitem__(3, np.nan), "infinite time": lambda s: setattr(s, "time", np.inf),
+        "infinite velocity": lambda s: s.base_linvel.__setitem__(1, np.inf), "zero quaternion": lambda s: s.base_quat.fill(0.0),
+        "base speed 25 m/s": lambda s: s.base_linvel.__setitem__(0, 25.0),
+        "spin 60 rad/s": lambda s: s.base_angvel.__setitem__(2, 60.0),
+        "one joint at 11x its speed limit": lambda s: s.qd.__setitem__(7, -11 * c.SPEED_LIMIT_RADPS[7]),
+    }
+    for name, corrupt in corruptions.items():
+        corrupted = copy.deepcopy(state)
+        corrupt(corrupted)
+        assert not AlipController._plausible_state(corrupted), name
