@@ -282,7 +282,7 @@ class AlipController:
             com_vertical_velocity_mps=float(alip.com_velocity[2]),
             com_vertical_acceleration_mps2=float(com_vertical_acceleration),
             stance_slip_speed_mps=robot.sole_horizontal_speed(stance),
-            centroidal_angular_momentum=math.hypot(*robot.data.hg.angular.tolist()),
+            centroidal_angular_momentum=math.hypot(*robot.centroidal_angular_momentum.tolist()),
             qp_solved=True, torque_saturation=saturation(tau, c.TORQUE_LIMIT_NM))
         end = time.perf_counter()
         self.last_diagnostics = ControllerDiagnostics(
