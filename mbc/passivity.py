@@ -306,7 +306,7 @@ class PassivityQp:
         H += template.H
         g = weighted @ rhs[6:]
         g[joints_v] += template.joint_gradient * a_ref
-        torque_map, torque_offset = rows[6:NV], h[joints_v]
+        torque_map, torque_offset = rows[joints_v], h[joints_v]  # in JOINT_NAMES order
         problem = QpProblem(
             H=H, g=g, A=rows[:6], b=-h[:6], C=np.concatenate((template.pyramid, torque_map)),
             l=np.concatenate((template.pyramid_lower, _NEGATIVE_TORQUE_LIMIT - torque_offset)),
