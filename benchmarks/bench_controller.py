@@ -82,7 +82,7 @@ def _report(title: str, results: list[dict]) -> None:
         mean = np.nanmean([r["mean"] for r in rows], axis=0)
         print(f"{label:>40} {len(rows):4d} {sum(not r['fell'] for r in rows):8d} {sum(r['tracked'] for r in rows):8d}"
               f"   ({mean[0]:+.3f}, {mean[1]:+.3f}, {mean[2]:+.3f})")
-    print(f"{'total':>34} {len(results):4d} {sum(not r['fell'] for r in results):8d} {sum(r['tracked'] for r in results):8d}")
+    print(f"{'total':>40} {len(results):4d} {sum(not r['fell'] for r in results):8d} {sum(r['tracked'] for r in results):8d}")
 
 
 def _run_jobs(jobs: list[tuple], workers: int) -> list[dict]:

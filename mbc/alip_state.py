@@ -31,13 +31,7 @@ def alip_state(robot: PinRobot, contact_point_world: np.ndarray, yaw: float) -> 
     heading frame (scalar maths: this runs every control tick).
     """
     cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
-    px, py, pz = contact_point_world.tolist()
-    cx, cy, cz = robot.data.com[0].tolist()
-    hg = robot.data.hg
-    (hx, hy, hz), (kx, ky, _) = hg.linear.tolist(), hg.angular.tolist()  # linear momentum, angular about the CoM
-    rx, ry, rz = cx - px, cy - py, cz - pz
-    Lx, Ly = kx + ry * hz - rz * hy, ky + rz * hx - rx * hz  # about the contact: k + r x h
-    vx, vy, vz = hx / robot.mass, hy / robot.mass, hz / robot.mass
+    (rx, ry, rz), (vx, vy, vz), (Lx, Ly, _) = robot.momentum_about(contact_point_world)
     return AlipState(
         x=np.array([cos_yaw * rx + sin_yaw * ry, -sin_yaw * rx + cos_yaw * ry]),
         L=np.array([-sin_yaw * Lx + cos_yaw * Ly, -(cos_yaw * Lx + sin_yaw * Ly)]),

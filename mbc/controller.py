@@ -313,14 +313,11 @@ class AlipController:
         cfg, model, clock = self.config, self.alip, self.clock
         T = cfg.timing.step_duration_s
         next_stance_sign = 1 if stance == RIGHT else -1  # the swing foot becomes the stance foot
-        # step-end momenta of the periodic gait for the command (`AlipModel.lateral_end_momentum`)
-        Lx_des = model.mz * self._end_velocity_per_mean * command[0]
-        Ly_mean = model.mz * self._end_velocity_per_mean * command[1]
-        Ly_des = Ly_mean - next_stance_sign * self._lateral_gait_momentum
+        Lx_des, Ly_des = self._gait_end_momenta(command, next_stance_sign)
         swing_side = 1.0 if stance == RIGHT else -1.0  # the swing foot lands to the left (+1) or right (-1)
         if self.mpc is not None:
             signs = next_stance_sign * (-1.0) ** np.arange(self.mpc.config.horizon_steps)
-            sequence = np.c_[np.full(len(signs), Lx_des), Ly_mean - signs * self._lateral_gait_momentum]
+            sequence = np.c_[np.full(len(signs), Lx_des), self._gait_end_momenta(command, signs)[1]]
             solution = self.mpc.solve(alip.x, alip.L, clock.time_in_step_s, -int(swing_side), sequence)
             if solution.time_left_s > 0.0:
                 clock.retime(solution.time_left_s)
@@ -346,6 +343,14 @@ class AlipController:
         time_left = clock.time_to_touchdown_s
         return self._clip_step(model.one_step_placement(x, Lx, time_left, Lx_des, T),
                                model.one_step_placement(y, Ly, time_left, Ly_des, T), swing_side)
+
+    def _gait_end_momenta(self, command: tuple[float, float, float], stance_sign):
+        """Step-end momenta (L_x, L_y) of the periodic gait for `command`, at the end of a stance with
+        `stance_sign` (+1 left, -1 right; an array for a sequence of steps): `AlipModel.end_velocity_for_mean`
+        and `lateral_end_momentum`, which are linear in the command, from two constants [kg m^2/s]."""
+        per_mean_velocity = self.alip.mz * self._end_velocity_per_mean
+        return (per_mean_velocity * command[0],
+                per_mean_velocity * command[1] - stance_sign * self._lateral_gait_momentum)
 
     def _clip_step(self, step_x: float, step_y: float, swing_side: float) -> tuple[float, float]:
         """The step within reach: |x| <= max length, the lateral distance within [min, max] width."""

@@ -11,13 +11,6 @@ import math
 import numpy as np
 
 
-def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a x b for 3-vectors."""
-    a0, a1, a2 = a.tolist()
-    b0, b1, b2 = b.tolist()
-    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
-
-
 def rotate_inverse(quat_wxyz: tuple[float, float, float, float], vector: np.ndarray) -> tuple[float, float, float]:
     """R(q)^T v for a unit quaternion q = (w, u): v - w t + u x t with t = 2 u x v."""
     w, x, y, z = quat_wxyz

@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from mbc.geometry import cross3
 from mbc.robot import JointMap, load_pinocchio, pinocchio_configuration, pinocchio_velocity
 from mbc.types import RobotState
 from robots.digit import constants as c
@@ -67,8 +66,19 @@ class PinRobot:
 
     def angular_momentum_about(self, point_world: np.ndarray) -> np.ndarray:
         """(3,) angular momentum about a fixed world point: L_com + (c - p) x m v_com [kg m^2/s]."""
+        return np.array(self.momentum_about(point_world)[2])
+
+    def momentum_about(self, point_world: np.ndarray) -> tuple[tuple[float, float, float], tuple[float, float, float],
+                                                                tuple[float, float, float]]:
+        """CoM minus the point [m], CoM velocity [m/s] and angular momentum about the point (as in
+        `angular_momentum_about`) [kg m^2/s], world axes, as float triples: the control tick's form."""
+        px, py, pz = point_world.tolist()
+        cx, cy, cz = self.data.com[0].tolist()
         hg = self.data.hg
-        return hg.angular + cross3(self.data.com[0] - point_world, hg.linear)
+        (hx, hy, hz), (kx, ky, kz) = hg.linear.tolist(), hg.angular.tolist()  # linear; angular about the CoM
+        rx, ry, rz = cx - px, cy - py, cz - pz
+        momentum = (kx + ry * hz - rz * hy, ky + rz * hx - rx * hz, kz + rx * hy - ry * hx)  # k + r x h
+        return (rx, ry, rz), (hx / self.mass, hy / self.mass, hz / self.mass), momentum
 
     @property
     def centroidal_angular_momentum(self) -> np.ndarray:

@@ -7,16 +7,11 @@ import pinocchio as pin
 import pytest
 
 from mbc.fuzz import random_quaternion_wxyz
-from mbc.geometry import cross3, rotate_inverse, wrap_angle, yaw_of_quaternion, yaw_of_rotation, yaw_rotation
+from mbc.geometry import rotate_inverse, wrap_angle, yaw_of_quaternion, yaw_of_rotation, yaw_rotation
 
 
 def _unit_quaternions(rng, n):
     return np.array([random_quaternion_wxyz(rng) for _ in range(n)])
-
-
-def test_cross3_is_the_cross_product(rng):
-    for a, b in rng.normal(size=(10, 2, 3)):
-        np.testing.assert_allclose(cross3(a, b), np.cross(a, b), atol=1e-14)
 
 
 def test_rotate_inverse_is_the_transposed_rotation_matrix(rng):
