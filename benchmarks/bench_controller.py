@@ -98,8 +98,12 @@ def suite_flat(args: Args) -> None:
                  Command(0.0, 0.0, 0.5), Command(0.0, 0.0, -0.5)]
     jobs = [(f"{tuple(float(x) for x in cmd.as_array())}", cmd, args.duration, seed, "flat", {}, ())
             for cmd in commands for seed in range(args.seeds)]
-    changes = [(0.0, Command(0.3, 0.0, 0.0)), (5.0, Command(0.0, 0.2, 0.0)), (10.0, Command(0.2, 0.0, 0.4)),
-               (15.0, Command(0.5, 0.0, 0.0))]
+    if args.duration < 10.0:
+        raise SystemExit(f"--duration must be at least 10 s (tracking is judged 2 s after the last command change), "
+                         f"got {args.duration}")
+    quarter = args.duration / 4  # a new command each quarter of the run (5 s apart in 20 s runs)
+    changes = [(0.0, Command(0.3, 0.0, 0.0)), (quarter, Command(0.0, 0.2, 0.0)), (2 * quarter, Command(0.2, 0.0, 0.4)),
+               (3 * quarter, Command(0.5, 0.0, 0.0))]
     jobs += [("changes 0.3 -> vy 0.2 -> turn -> 0.5", changes, args.duration, seed, "flat", {}, ())
              for seed in range(args.seeds)]
     _report(f"flat ground, {args.duration:.0f} s per run", _run_jobs(jobs, args.workers))
