@@ -2,11 +2,13 @@
 
     python benchmarks/bench_controller.py                    # everything (about 15 min on 2 cores)
     python benchmarks/bench_controller.py --suites speed corrupt --seeds 3
+    python benchmarks/bench_controller.py --suites flat push terrain --policy policies/distilled.pt
 
 Every suite prints its figures. A run succeeds when the robot does not fall; velocity tracking is
 judged on the mean heading-frame velocity after the first 3 s, within 10% or 0.05 m/s
 (yaw: 10% or 0.05 rad/s) of the command. Seeds perturb the initial state (joint angles, base
-velocity), so runs differ.
+velocity), so runs differ. With `--policy`, the flat, push and terrain suites run the learned policy
+(`learn.PolicyController`) on the same runs as the MBC, rows side by side.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from typing import Literal
 import numpy as np
 import tyro
 
+from learn.policy import PolicyController
 from mbc.controller import AlipController
 from mbc.fuzz import random_robot_state
 from mbc.rollout import Push, run_episode
@@ -44,6 +47,8 @@ class Args:
     """Back-to-back timing runs of the speed suite."""
     plots: Path | None = None
     """Directory for figures (the push suite's recovery map)."""
+    policy: Path | None = None
+    """A learned policy checkpoint to run beside the MBC in the flat, push and terrain suites."""
 
 
 def perturbed_start(sim: DigitSim, seed: int) -> RobotState:
@@ -63,7 +68,9 @@ def _walk(job: tuple) -> dict:
     label, commands, duration, seed, terrain, params, pushes, *options = job
     warnings.simplefilter("ignore", RuntimeWarning)
     sim = DigitSim(terrain, seed=seed, **params)
-    controller = AlipController.for_digit(**(options[0] if options else {}))
+    options = dict(options[0]) if options else {}
+    policy = options.pop("policy", None)
+    controller = PolicyController(policy) if policy else AlipController.for_digit(**options)
     episode = run_episode(sim, controller, commands, duration, pushes, state=perturbed_start(sim, seed))
     final = commands if isinstance(commands, Command) else commands[-1][1]
     since = 3.0 if isinstance(commands, Command) else commands[-1][0] + 2.0
@@ -71,18 +78,29 @@ def _walk(job: tuple) -> dict:
     tracked = not episode.fell and all(within(m, cmd) for m, cmd in zip(mean, final.as_array()))
     return {"label": label, "seed": seed, "push_n": max((float(np.linalg.norm(p.force_n)) for p in pushes), default=0.0),
             "fell": episode.fell, "tracked": tracked, "mean": mean, "final": final.as_array(),
-            "x_end": episode.base_pos[-1][0], "fallbacks": controller.fallback_count}
+            "x_end": episode.base_pos[-1][0], "fallbacks": getattr(controller, "fallback_count", 0)}
 
 
 def _report(title: str, results: list[dict]) -> None:
     print(f"\n== {title}")
-    print(f"{'case':>40} {'runs':>4} {'no fall':>8} {'tracked':>8}   mean (vx, vy, yaw) over runs")
+    print(f"{'case':>48} {'runs':>4} {'no fall':>8} {'tracked':>8}   mean (vx, vy, yaw) over runs")
     for label in dict.fromkeys(r["label"] for r in results):
         rows = [r for r in results if r["label"] == label]
         mean = np.nanmean([r["mean"] for r in rows], axis=0)
-        print(f"{label:>40} {len(rows):4d} {sum(not r['fell'] for r in rows):8d} {sum(r['tracked'] for r in rows):8d}"
+        print(f"{label:>48} {len(rows):4d} {sum(not r['fell'] for r in rows):8d} {sum(r['tracked'] for r in rows):8d}"
               f"   ({mean[0]:+.3f}, {mean[1]:+.3f}, {mean[2]:+.3f})")
-    print(f"{'total':>40} {len(results):4d} {sum(not r['fell'] for r in results):8d} {sum(r['tracked'] for r in results):8d}")
+    print(f"{'total':>48} {len(results):4d} {sum(not r['fell'] for r in results):8d} {sum(r['tracked'] for r in results):8d}")
+
+
+def _with_policy(jobs: list[tuple], policy: Path | None) -> list[tuple]:
+    """Each job for the MBC and, with a policy, the same job for the policy right after it."""
+    if policy is None:
+        return jobs
+    paired = []
+    for label, *rest in jobs:
+        options = rest[6] if len(rest) > 6 else {}
+        paired += [("MBC: " + label, *rest[:6], options), ("policy: " + label, *rest[:6], options | {"policy": str(policy)})]
+    return paired
 
 
 def _run_jobs(jobs: list[tuple], workers: int) -> list[dict]:
@@ -106,7 +124,7 @@ def suite_flat(args: Args) -> None:
                (3 * quarter, Command(0.5, 0.0, 0.0))]
     jobs += [("changes 0.3 -> vy 0.2 -> turn -> 0.5", changes, args.duration, seed, "flat", {}, ())
              for seed in range(args.seeds)]
-    _report(f"flat ground, {args.duration:.0f} s per run", _run_jobs(jobs, args.workers))
+    _report(f"flat ground, {args.duration:.0f} s per run", _run_jobs(_with_policy(jobs, args.policy), args.workers))
 
 
 def suite_push(args: Args) -> None:
@@ -121,7 +139,7 @@ def suite_push(args: Args) -> None:
                 for name in names for k in range(args.seeds)]
 
     _report("pushes while walking at 0.2 m/s (phases spread over a gait cycle)",
-             _run_jobs(jobs_for(100.0, tuple(directions), {}), args.workers))
+             _run_jobs(_with_policy(jobs_for(100.0, tuple(directions), {}), args.policy), args.workers))
     jobs = []
     for force in (150.0, 200.0):
         for adapt in (True, False):
@@ -167,10 +185,10 @@ def suite_terrain(args: Args) -> None:
                   {"angle_deg": angle, "run_up_m": 1.5, "length_m": 5.0}, ()) for seed in range(args.seeds)]
     jobs += [("uneven 2 cm", Command(0.3, 0.0, 0.0), args.duration, seed, "uneven", {"amplitude": 0.02}, ())
              for seed in range(args.seeds)]
-    results = _run_jobs(jobs, args.workers)
+    results = _run_jobs(_with_policy(jobs, args.policy), args.workers)
     _report("terrain", results)
     for r in results:
-        if r["label"].startswith("slope") and not r["fell"] and r["x_end"] < 6.5:
+        if "slope" in r["label"] and not r["fell"] and r["x_end"] < 6.5:
             print(f"   note: {r['label']} run ended at x = {r['x_end']:.2f} m, before the top (6.5 m)")
 
 

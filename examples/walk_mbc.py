@@ -4,6 +4,7 @@
     python examples/walk_mbc.py --vx 0.3 --terrain slope --angle-deg 5
     python examples/walk_mbc.py --vy 0.2 --push-force 0 100 0 --push-time 4
     python examples/walk_mbc.py --viewer          # needs a display
+    python examples/walk_mbc.py --policy policies/distilled.pt --vx 0.5   # a learned policy instead of the MBC
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 import tyro
 from tqdm import tqdm
 
+from learn.policy import PolicyController
 from mbc.controller import AlipController
 from mbc.rollout import Push, run_episode
 from mbc.sim import DigitSim
@@ -49,6 +51,8 @@ class Args:
     foot_placement: Literal["one_step", "mpc"] = "one_step"
     adapt_step_timing: bool = True
     """Touch down sooner when the one-step law's step is beyond reach (after a push)."""
+    policy: Path | None = None
+    """Walk with this learned policy checkpoint (`learn.PolicyController`) instead of the MBC."""
     viewer: bool = False
     """Open the passive MuJoCo viewer (needs a display)."""
     out: Path | None = None
@@ -62,7 +66,8 @@ def terrain_params(args: Args) -> dict:
 
 def main(args: Args) -> dict:
     sim = DigitSim(args.terrain, seed=args.seed, viewer=args.viewer, **terrain_params(args))
-    controller = AlipController.for_digit(foot_placement=args.foot_placement, adapt_step_timing=args.adapt_step_timing)
+    controller = PolicyController(args.policy) if args.policy else AlipController.for_digit(
+        foot_placement=args.foot_placement, adapt_step_timing=args.adapt_step_timing)
     pushes = [Push(args.push_time, args.push_force, args.push_duration)] if args.push_force else []
     progress = tqdm(total=int(round(args.duration / sim.dt)), desc="walking", unit="tick", leave=False, disable=None)
     with warnings.catch_warnings(record=True) as caught:
@@ -75,7 +80,8 @@ def main(args: Args) -> dict:
     diagnostics = [d for d in episode.diagnostics if d is not None and not d.fallback]
     violations = np.array([d.assumptions.as_array() for d in diagnostics])
     names = diagnostics[0].assumptions.NAMES if diagnostics else ()
-    splits = {k: 1e3 * float(np.median([d.tick_time_s[k] for d in diagnostics])) for k in ("alip", "ik", "qp")}
+    splits = {k: 1e3 * float(np.median([d.tick_time_s[k] for d in diagnostics])) if diagnostics else float("nan")
+              for k in ("alip", "ik", "qp")}
     print(f"command (vx, vy, yaw_rate) = ({args.vx}, {args.vy}, {args.yaw_rate}) on {args.terrain}")
     print(f"  fell: {summary['fell']}" + (f" at {summary['fall_time_s']:.2f} s" if summary["fell"] else ""))
     print(f"  distance {summary['distance_m']:.2f} m; mean velocity vx {summary['mean_vx_mps']:.3f}, "
@@ -83,12 +89,13 @@ def main(args: Args) -> dict:
     print(f"  mean velocity tracking error {summary['velocity_error_mps']:.3f} m/s")
     print(f"  tick: median {summary['tick_median_ms']:.2f} ms (alip {splits['alip']:.2f}, ik {splits['ik']:.2f}, "
           f"qp {splits['qp']:.2f}), p99 {summary['tick_p99_ms']:.2f} ms, max {summary['tick_max_ms']:.2f} ms")
-    print(f"  fallbacks: {controller.fallback_count}; warnings: {len(caught)}")
+    print(f"  fallbacks: {getattr(controller, 'fallback_count', 0)}; warnings: {len(caught)}")
     if len(violations):
         print("  model-assumption violations (mean |.|, max |.|):")
         for name, column in zip(names, np.abs(violations).T):
             print(f"    {name:32s} {column.mean():9.4f} {column.max():9.4f}")
-    summary.update(fallbacks=controller.fallback_count, tick_split_median_ms=splits, args=vars(args) | {"out": str(args.out)})
+    summary.update(fallbacks=getattr(controller, "fallback_count", 0), tick_split_median_ms=splits,
+                   args=vars(args) | {"out": str(args.out)})
     if args.out:
         args.out.parent.mkdir(parents=True, exist_ok=True)
         args.out.write_text(json.dumps(summary, indent=2, default=str))

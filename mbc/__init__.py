@@ -6,7 +6,7 @@ passivity-based inverse-dynamics QP, and model-assumption diagnostics.
 
 from mbc.alip import AlipModel
 from mbc.errors import ConfigError, MbcError, ModelLoadError
-from mbc.types import Command, JointCommand, RobotState
+from mbc.types import Command, Controller, JointCommand, RobotState
 
 _LAZY = {"AlipController": "mbc.controller", "DigitSim": "mbc.sim", "run_episode": "mbc.rollout"}
 
@@ -20,5 +20,5 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'mbc' has no attribute {name!r}")
 
 
-__all__ = ["AlipController", "AlipModel", "Command", "ConfigError", "DigitSim", "JointCommand", "MbcError",
+__all__ = ["AlipController", "AlipModel", "Command", "ConfigError", "Controller", "DigitSim", "JointCommand", "MbcError",
            "ModelLoadError", "RobotState", "run_episode"]

@@ -6,24 +6,13 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Protocol
 
 import numpy as np
 
 from mbc.errors import ConfigError
 from mbc.geometry import yaw_of_quaternion, yaw_rotation
 from mbc.sim import DigitSim
-from mbc.types import Command, JointCommand, RobotState
-
-
-class Controller(Protocol):
-    """What drives the robot: the model-based controller and every learned policy."""
-
-    dt: float
-
-    def reset(self, state: RobotState) -> None: ...
-
-    def act(self, state: RobotState, command: Command) -> JointCommand: ...
+from mbc.types import Command, Controller, JointCommand, RobotState
 
 
 @dataclass(frozen=True)

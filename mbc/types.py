@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -98,3 +99,16 @@ class JointCommand:
     def hold(cls, q: np.ndarray) -> JointCommand:
         """Hold joint positions `q` with zero velocity and no feed-forward."""
         return cls(q_des=np.array(q, dtype=float), qd_des=np.zeros(NUM_JOINTS))
+
+
+class Controller(Protocol):
+    """What drives the robot: the model-based controller and every learned policy.
+
+    `dt` is the control period [s]; `reset` starts from a state (standing or mid-gait); `act` maps the
+    measured state and the velocity command to the joint command of this tick."""
+
+    dt: float
+
+    def reset(self, state: RobotState) -> None: ...
+
+    def act(self, state: RobotState, command: Command) -> JointCommand: ...

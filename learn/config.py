@@ -1,0 +1,181 @@
+"""Configuration of the walking task, the policy and DAgger: dataclasses with a docstring per field,
+parsed from the command line by tyro in the examples. Variants are factory functions."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from mbc.errors import ConfigError
+
+
+def _require(condition: bool, message: str) -> None:
+    if not condition:
+        raise ConfigError(message)
+
+
+def _check_range(name: str, bounds: tuple[float, float]) -> None:
+    _require(len(bounds) == 2 and bounds[0] <= bounds[1], f"{name} must be (low, high) with low <= high, got {bounds}")
+
+
+@dataclass(frozen=True)
+class CommandSampling:
+    """How an episode's velocity commands are drawn (heading frame)."""
+
+    vx_mps: tuple[float, float] = (-0.5, 1.0)
+    """Forward velocity range [m/s] (the AlipController's own range)."""
+    vy_mps: tuple[float, float] = (-0.3, 0.3)
+    """Lateral velocity range [m/s]."""
+    yaw_rate_radps: tuple[float, float] = (-0.8, 0.8)
+    """Yaw rate range [rad/s]."""
+    standing_probability: float = 0.1
+    """Probability that a command is zero (stand in place)."""
+    lateral_probability: float = 0.35
+    """Probability that a command has a lateral component (else vy = 0)."""
+    yaw_probability: float = 0.35
+    """Probability that a command has a yaw rate (else 0)."""
+    resample_interval_s: tuple[float, float] = (2.5, 6.0)
+    """A new command is drawn after a time uniform in this range [s]."""
+
+    def __post_init__(self) -> None:
+        for name in ("vx_mps", "vy_mps", "yaw_rate_radps", "resample_interval_s"):
+            _check_range(name, getattr(self, name))
+        for name in ("standing_probability", "lateral_probability", "yaw_probability"):
+            _require(0.0 <= getattr(self, name) <= 1.0, f"{name} must be in [0, 1], got {getattr(self, name)}")
+        _require(self.resample_interval_s[0] > 0, "resample_interval_s must be positive")
+
+
+@dataclass(frozen=True)
+class PushSampling:
+    """Random pushes on the pelvis during an episode."""
+
+    probability: float = 0.3
+    """Probability that an episode segment gets one push."""
+    force_n: tuple[float, float] = (40.0, 110.0)
+    """Horizontal force magnitude range [N], in a uniformly random direction."""
+    duration_s: float = 0.2
+    """Push duration [s]."""
+
+    def __post_init__(self) -> None:
+        _require(0.0 <= self.probability <= 1.0, f"push probability must be in [0, 1], got {self.probability}")
+        _check_range("force_n", self.force_n)
+        _require(self.duration_s >= 0, f"push duration_s must be >= 0, got {self.duration_s}")
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """The Digit walking task."""
+
+    terrains: tuple[str, ...] = ("flat", "flat", "flat", "uneven:amplitude=0.02", "slope:angle_deg=5",
+                                 "slope:angle_deg=-5")
+    """Terrains as 'name' or 'name:key=value,...' (see `mbc.sim.terrain`); environment i uses entry i mod len."""
+    episode_length_s: float = 20.0
+    """Episodes end (truncated) after this much simulated time [s]."""
+    tilt_limit_rad: float = 0.35
+    """An episode ends (terminated) when the pelvis tilts more than this from upright (20 deg) [rad];
+    the expert's labels beyond it are unusable."""
+    history_length: int = 3
+    """Past ticks of leg joint positions and velocities in the observation."""
+    init_joint_noise_rad: float = 0.02
+    """Uniform noise on the standing joint angles at reset [rad]."""
+    init_velocity_noise_mps: float = 0.05
+    """Uniform noise on the initial horizontal base velocity [m/s]."""
+    commands: CommandSampling = field(default_factory=CommandSampling)
+    pushes: PushSampling = field(default_factory=PushSampling)
+    lin_vel_tracking_sigma: float = 0.25
+    """delta_xy of the linear velocity tracking reward exp(-|v - v_cmd|^2 / delta) [(m/s)^2]."""
+    ang_vel_tracking_sigma: float = 0.25
+    """delta_omega of the yaw rate tracking reward [(rad/s)^2]."""
+
+    def __post_init__(self) -> None:
+        _require(len(self.terrains) > 0, "terrains must name at least one terrain")
+        _require(self.episode_length_s > 0, f"episode_length_s must be positive, got {self.episode_length_s}")
+        _require(0 < self.tilt_limit_rad < 1.5, f"tilt_limit_rad must be in (0, 1.5), got {self.tilt_limit_rad}")
+        _require(self.history_length >= 0, f"history_length must be >= 0, got {self.history_length}")
+
+
+@dataclass(frozen=True)
+class PolicyConfig:
+    """Actor and critic networks."""
+
+    actor_hidden: tuple[int, ...] = (512, 256, 64)
+    """Hidden layer widths of the actor MLP (the paper's)."""
+    critic_hidden: tuple[int, ...] = (512, 256, 64)
+    """Hidden layer widths of the critic MLP."""
+    init_log_std: float = -1.0
+    """Initial log standard deviation of the Gaussian policy (in normalized action units)."""
+
+    def __post_init__(self) -> None:
+        _require(all(w > 0 for w in self.actor_hidden + self.critic_hidden), "hidden widths must be positive")
+
+
+@dataclass(frozen=True)
+class DaggerConfig:
+    """DAgger: rollouts mixing expert and learner, every visited state labelled, supervised fitting."""
+
+    iterations: int = 40
+    """Rollout-and-fit iterations."""
+    steps_per_env: int = 1200
+    """Control ticks each environment runs per iteration (6 s at 200 Hz)."""
+    beta_initial: float = 1.0
+    """Probability that the expert's action is executed in iteration 0."""
+    beta_decay: float = 0.6
+    """beta of iteration k is beta_initial * beta_decay^k."""
+    beta_min: float = 0.0
+    """Floor of beta."""
+    gradient_steps: int = 300
+    """Minibatch updates after each iteration's rollout."""
+    batch_size: int = 4096
+    """Minibatch size [samples]."""
+    learning_rate: float = 1e-3
+    """Adam step size at iteration 0."""
+    learning_rate_final: float = 1e-4
+    """Adam step size at the last iteration (cosine decay in between)."""
+    max_dataset_samples: int = 4_000_000
+    """Keep at most this many of the most recent labelled samples in memory for fitting."""
+    discard_before_fall_s: float = 0.25
+    """Labels of the last this many seconds before a termination are not trained on (a falling robot) [s]."""
+
+    def __post_init__(self) -> None:
+        _require(self.iterations > 0 and self.steps_per_env > 0 and self.gradient_steps >= 0 and self.batch_size > 0,
+                 "iterations, steps_per_env and batch_size must be positive, gradient_steps >= 0")
+        _require(0.0 <= self.beta_min <= self.beta_initial <= 1.0, "need 0 <= beta_min <= beta_initial <= 1")
+        _require(0.0 <= self.beta_decay <= 1.0, f"beta_decay must be in [0, 1], got {self.beta_decay}")
+        _require(self.learning_rate > 0 and self.learning_rate_final > 0, "learning rates must be positive")
+
+    def beta(self, iteration: int) -> float:
+        """Probability of executing the expert's action in `iteration`."""
+        return max(self.beta_initial * self.beta_decay ** iteration, self.beta_min)
+
+
+@dataclass(frozen=True)
+class WorkerConfig:
+    """Parallel simulation."""
+
+    workers: int = 2
+    """Worker processes (0: run the environments in this process)."""
+    envs_per_worker: int = 8
+    """Environments per worker; the policy runs batched over them."""
+
+    def __post_init__(self) -> None:
+        _require(self.workers >= 0 and self.envs_per_worker > 0, "workers must be >= 0 and envs_per_worker > 0")
+
+    @property
+    def num_envs(self) -> int:
+        return max(self.workers, 1) * self.envs_per_worker
+
+
+@dataclass(frozen=True)
+class DistillConfig:
+    """A DAgger distillation run: where it writes, its seed, and the parts' settings."""
+
+    run_dir: Path = Path("runs/distill")
+    """Directory of the run: resolved config, TensorBoard logs, dataset shards, checkpoints."""
+    seed: int = 0
+    """Seed of the rollouts and of the minibatch sampling."""
+    resume: bool = False
+    """Continue the run in `run_dir` from its last checkpoint (same schedule, no labelled sample lost)."""
+    env: EnvConfig = field(default_factory=EnvConfig)
+    policy: PolicyConfig = field(default_factory=PolicyConfig)
+    dagger: DaggerConfig = field(default_factory=DaggerConfig)
+    workers: WorkerConfig = field(default_factory=WorkerConfig)

@@ -1,0 +1,184 @@
+"""`WalkEnv`: one Digit walking task on a `DigitSim`: observation, action, reward, termination,
+command sampling and pushes, with the privileged quantities the learner needs beside the observation.
+
+One tick, as the rollout drives it:
+
+    obs = env.observation                      # of the current state
+    expert_action, valid = env.label()         # the expert sees every state, in order (optional)
+    step = env.step(action)                    # the executed action (policy's or expert's)
+
+Privileged quantities (`env.monitors`: the model-assumption monitors of the current state, read from
+MuJoCo; the expert's label) never enter the observation.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from learn.action import ActionSpace
+from learn.config import CommandSampling, EnvConfig
+from learn.expert import Expert
+from learn.observation import ObservationBuilder
+from learn.rewards import RewardInputs, reward_terms, total_reward
+from mbc.controller import AlipControllerConfig
+from mbc.errors import ConfigError
+from mbc.geometry import rotate_inverse, yaw_of_quaternion
+from mbc.sim import DigitSim
+from mbc.timing import LEFT, RIGHT
+from mbc.types import RobotState
+from robots.digit import constants as c
+
+MONITOR_NAMES = ("com_vertical_velocity_mps", "com_height_error_m", "stance_slip_speed_mps")
+"""The model-assumption monitors each tick reports (ALIP: z' = 0, z = z_bar; a stance foot that does not slip)."""
+
+
+def parse_terrain(spec: str) -> tuple[str, dict[str, float]]:
+    """'slope:angle_deg=5,length_m=4' -> ('slope', {'angle_deg': 5.0, 'length_m': 4.0})."""
+    name, _, rest = spec.partition(":")
+    params = {}
+    for item in filter(None, rest.split(",")):
+        key, sep, value = item.partition("=")
+        try:
+            params[key.strip()] = float(value)
+        except ValueError:
+            sep = ""
+        if not sep:
+            raise ConfigError(f"terrain {spec!r}: parameters must be key=number, separated by commas")
+    return name.strip(), params
+
+
+def sample_command(rng: np.random.Generator, sampling: CommandSampling) -> np.ndarray:
+    """(3,) a command (vx, vy, yaw rate) drawn from `sampling`."""
+    if rng.random() < sampling.standing_probability:
+        return np.zeros(3)
+    vx = rng.uniform(*sampling.vx_mps)
+    vy = rng.uniform(*sampling.vy_mps) if rng.random() < sampling.lateral_probability else 0.0
+    yaw = rng.uniform(*sampling.yaw_rate_radps) if rng.random() < sampling.yaw_probability else 0.0
+    return np.array([vx, vy, yaw])
+
+
+def tilt_of(quat_wxyz: np.ndarray) -> float:
+    """Angle between the base z axis and the world vertical [rad]."""
+    _, x, y, _ = quat_wxyz.tolist()
+    return math.acos(min(max(1.0 - 2.0 * (x * x + y * y), -1.0), 1.0))
+
+
+@dataclass
+class Step:
+    """What one `WalkEnv.step` returns."""
+
+    observation: np.ndarray
+    """Observation of the new state (of the next episode's first state after a reset)."""
+    reward: float
+    terminated: bool
+    """Fell or tilted beyond the limit."""
+    truncated: bool
+    """Reached the episode length."""
+    reward_terms: dict[str, float]
+
+
+class WalkEnv:
+    """The walking task for one robot; environment `index` takes terrain `config.terrains[index % n]`."""
+
+    def __init__(self, config: EnvConfig, index: int = 0, with_expert: bool = True) -> None:
+        self.config = config
+        name, params = parse_terrain(config.terrains[index % len(config.terrains)])
+        self.terrain_name = config.terrains[index % len(config.terrains)]
+        self.sim = DigitSim(name, seed=index, **params)
+        self.action_space = ActionSpace(self.sim.kp, self.sim.kd)
+        self.expert = Expert(self.action_space) if with_expert else None
+        self.builder = ObservationBuilder(config.history_length)
+        self.rng = np.random.default_rng(index)
+        self._feet = [self.sim.model.body(f).id for f in c.FOOT_LINKS]
+        self._foot_boxes = [self.sim.model.geom(f"{f}_box").id for f in c.FOOT_LINKS]
+        self._pelvis = self.sim.model.body(c.BASE_LINK).id
+        self._velocity = np.zeros(6)
+        self.state: RobotState | None = None
+        self.command = np.zeros(3)
+        self.observation = np.zeros(self.builder.layout.size)
+        self.monitors = np.zeros(len(MONITOR_NAMES))
+        self.episode_start_s = 0.0
+
+    @property
+    def observation_size(self) -> int:
+        return self.builder.layout.size
+
+    # --- episode --------------------------------------------------------------------------------
+
+    def reset(self, seed: int) -> np.ndarray:
+        """Start an episode from a perturbed stand; returns the first observation."""
+        cfg = self.config
+        self.rng = rng = np.random.default_rng(seed)
+        state = self.sim.reset()
+        state.q = state.q + rng.uniform(-cfg.init_joint_noise_rad, cfg.init_joint_noise_rad, c.NUM_JOINTS)
+        state.base_linvel = np.r_[rng.uniform(-cfg.init_velocity_noise_mps, cfg.init_velocity_noise_mps, 2), 0.0]
+        self.sim.set_state(state)
+        self.state = self.sim.state()
+        self.episode_start_s = self.state.time
+        self.command = sample_command(rng, cfg.commands)
+        self._next_command_s = rng.uniform(*cfg.commands.resample_interval_s)
+        pushes = cfg.pushes
+        self._push_at_s = rng.uniform(1.0, 6.0) if rng.random() < pushes.probability else math.inf
+        contact = self.state.contact
+        stance = RIGHT if (contact[RIGHT] and not contact[LEFT]) else LEFT
+        self.builder.reset(self.state, stance)
+        if self.expert is not None:
+            self.expert.reset(self.state, stance)
+        self.observation = self.builder.observe(self.state, self.command)
+        self._update_monitors()
+        return self.observation
+
+    @property
+    def episode_time_s(self) -> float:
+        return self.state.time - self.episode_start_s
+
+    def label(self) -> tuple[np.ndarray, bool]:
+        """The expert's action for the current state and whether it is a usable label."""
+        if self.expert is None:
+            raise ConfigError("this environment was built without an expert (with_expert=False)")
+        return self.expert.label(self.state, self.command)
+
+    def step(self, action: np.ndarray) -> Step:
+        """Apply `action` (normalized, see `learn.action`) for one control period."""
+        cfg = self.config
+        t = self.episode_time_s
+        if t >= self._push_at_s:
+            angle = self.rng.uniform(0, 2 * math.pi)
+            force = self.rng.uniform(*cfg.pushes.force_n)
+            self.sim.push((force * math.cos(angle), force * math.sin(angle), 0.0), cfg.pushes.duration_s)
+            self._push_at_s = math.inf
+        command = self.command
+        self.state = state = self.sim.step(self.action_space.to_command(action, self.state))
+        yaw = yaw_of_quaternion(state.base_quat)
+        cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
+        vx, vy = state.base_linvel[0], state.base_linvel[1]
+        terms = reward_terms(RewardInputs(
+            v_xy_heading=np.array([cos_yaw * vx + sin_yaw * vy, -sin_yaw * vx + cos_yaw * vy]),
+            angvel_base=np.array(rotate_inverse(state.base_quat, state.base_angvel)), yaw_rate=float(state.base_angvel[2]),
+            command=command, tau=state.tau), cfg.lin_vel_tracking_sigma, cfg.ang_vel_tracking_sigma)
+        terminated = self.sim.fallen or tilt_of(state.base_quat) > cfg.tilt_limit_rad
+        truncated = not terminated and self.episode_time_s >= cfg.episode_length_s - 1e-9
+        if self.episode_time_s >= self._next_command_s:
+            self.command = sample_command(self.rng, cfg.commands)
+            self._next_command_s += self.rng.uniform(*cfg.commands.resample_interval_s)
+        self.builder.record_action(action)
+        self.observation = self.builder.observe(state, self.command)
+        self._update_monitors()
+        return Step(self.observation, total_reward(terms), terminated, truncated, terms)
+
+    # --- privileged -------------------------------------------------------------------------------
+
+    def _update_monitors(self) -> None:
+        """CoM vertical velocity, CoM height above the stance sole minus the ALIP height, stance sole speed."""
+        model, data = self.sim.model, self.sim.data
+        mujoco.mj_subtreeVel(model, data)
+        stance = self.builder.clock.stance
+        sole_z = data.geom_xpos[self._foot_boxes[stance], 2] - 0.5 * c.FOOT_SIZE_M[2]
+        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, self._feet[stance], self._velocity, 0)
+        self.monitors = np.array([data.subtree_linvel[self._pelvis, 2],
+                                  data.subtree_com[self._pelvis, 2] - sole_z - AlipControllerConfig.com_height_m,
+                                  math.hypot(self._velocity[3], self._velocity[4])])

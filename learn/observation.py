@@ -1,0 +1,86 @@
+"""The policy's observation (the paper's), built the same way in training and at deployment.
+
+Layout (`ObservationLayout`, in order): base linear and angular velocity in the base frame, projected
+gravity, command (vx, vy, yaw rate), leg joint positions and velocities, gait clock features (sin and
+cos of the two-step phase, stance one-hot) from a `GaitClock` fed time and contacts, the previous
+action, and the leg joint positions and velocities of the last `history_length` ticks (most recent
+first). Privileged quantities (the expert's action, the assumption monitors) are never in it.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from learn.action import ACTION_DIM
+from mbc.geometry import rotate_inverse
+from mbc.timing import GaitClock, TimingConfig
+from mbc.types import RobotState
+from robots.digit.constants import NUM_JOINTS
+
+GAIT_FEATURES = 4
+
+
+@dataclass(frozen=True)
+class ObservationLayout:
+    """Names and sizes of the observation's parts, in order."""
+
+    history_length: int
+
+    @property
+    def parts(self) -> tuple[tuple[str, int], ...]:
+        return (("base_linvel", 3), ("base_angvel", 3), ("projected_gravity", 3), ("command", 3),
+                ("q", NUM_JOINTS), ("qd", NUM_JOINTS), ("gait", GAIT_FEATURES), ("previous_action", ACTION_DIM),
+                ("q_history", NUM_JOINTS * self.history_length), ("qd_history", NUM_JOINTS * self.history_length))
+
+    @property
+    def size(self) -> int:
+        return sum(n for _, n in self.parts)
+
+    def slice(self, name: str) -> slice:
+        start = 0
+        for part, n in self.parts:
+            if part == name:
+                return slice(start, start + n)
+            start += n
+        raise KeyError(f"no observation part {name!r}; parts: {[p for p, _ in self.parts]}")
+
+
+class ObservationBuilder:
+    """Keeps what the observation needs across ticks (gait clock, joint history, previous action)."""
+
+    def __init__(self, history_length: int, timing: TimingConfig | None = None) -> None:
+        self.layout = ObservationLayout(history_length)
+        self.clock = GaitClock(timing)
+        self._q_history: deque[np.ndarray] = deque(maxlen=history_length)
+        self._qd_history: deque[np.ndarray] = deque(maxlen=history_length)
+        self.previous_action = np.zeros(ACTION_DIM)
+        self._last_q, self._last_qd = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
+
+    def reset(self, state: RobotState, stance: int, phase: float = 0.0) -> None:
+        """Start from `state`: history filled with its joints, no previous action."""
+        self.clock.reset(state.time, stance, phase)
+        for _ in range(self.layout.history_length):
+            self._q_history.append(state.q.copy())
+            self._qd_history.append(state.qd.copy())
+        self._last_q, self._last_qd = state.q.copy(), state.qd.copy()
+        self.previous_action = np.zeros(ACTION_DIM)
+
+    def observe(self, state: RobotState, command: np.ndarray) -> np.ndarray:
+        """(layout.size,) the observation of `state`; advances the clock and the history by one tick."""
+        if self.layout.history_length:
+            self._q_history.appendleft(self._last_q)
+            self._qd_history.appendleft(self._last_qd)
+        self._last_q, self._last_qd = state.q.copy(), state.qd.copy()
+        self.clock.update(state.time, state.contact)
+        quat = state.base_quat
+        parts = [rotate_inverse(quat, state.base_linvel), rotate_inverse(quat, state.base_angvel),
+                 rotate_inverse(quat, np.array([0.0, 0.0, -1.0])), np.asarray(command, float), state.q, state.qd,
+                 self.clock.observation(), self.previous_action, *self._q_history, *self._qd_history]
+        return np.concatenate(parts)
+
+    def record_action(self, action: np.ndarray) -> None:
+        """The action executed after the last observation (it appears in the next one)."""
+        self.previous_action = np.asarray(action, float).copy()

@@ -1,0 +1,154 @@
+"""Actor-critic networks with observation normalization, their checkpoint format, and
+`PolicyController`: a trained policy behind the `Controller` protocol.
+
+The actor is an MLP (512-256-64, ELU) whose output is the mean action mu(s), the deterministic policy;
+a learnable log standard deviation makes it the Gaussian policy of PPO. Observations are normalized
+by a mean and standard deviation saved with the networks, so a checkpoint is self-contained.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from learn.action import ACTION_DIM, ActionSpace
+from learn.config import PolicyConfig
+from learn.observation import ObservationBuilder
+from mbc.errors import ConfigError
+from mbc.timing import LEFT, RIGHT
+from mbc.types import Command, JointCommand, RobotState
+
+CHECKPOINT_FORMAT = "ppf-digit-policy-1"
+
+
+def mlp(sizes: tuple[int, ...]) -> nn.Sequential:
+    """Linear layers of `sizes` with ELU between them (none after the last)."""
+    layers: list[nn.Module] = []
+    for k, (n_in, n_out) in enumerate(zip(sizes[:-1], sizes[1:])):
+        layers.append(nn.Linear(n_in, n_out))
+        if k < len(sizes) - 2:
+            layers.append(nn.ELU())
+    return nn.Sequential(*layers)
+
+
+class Normalizer(nn.Module):
+    """(x - mean) / std with statistics set from data; `inverse` undoes it."""
+
+    def __init__(self, size: int, epsilon: float = 1e-2) -> None:
+        super().__init__()
+        self.epsilon = epsilon
+        self.register_buffer("mean", torch.zeros(size))
+        self.register_buffer("std", torch.ones(size))
+
+    def set_statistics(self, data: np.ndarray) -> None:
+        """Mean and std of `data` (n, size); std floored at epsilon (constant features stay finite)."""
+        data = np.asarray(data, np.float64)
+        self.mean.copy_(torch.as_tensor(data.mean(axis=0), dtype=torch.float32))
+        self.std.copy_(torch.as_tensor(np.maximum(data.std(axis=0), self.epsilon), dtype=torch.float32))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return (x - self.mean) / self.std
+
+    def inverse(self, y: torch.Tensor) -> torch.Tensor:
+        return y * self.std + self.mean
+
+
+class ActorCritic(nn.Module):
+    """Gaussian actor with a state-independent learnable log-std, and a value critic."""
+
+    def __init__(self, observation_size: int, config: PolicyConfig | None = None, action_size: int = ACTION_DIM) -> None:
+        super().__init__()
+        self.config = config or PolicyConfig()
+        self.observation_size, self.action_size = observation_size, action_size
+        self.normalizer = Normalizer(observation_size)
+        self.actor = mlp((observation_size, *self.config.actor_hidden, action_size))
+        self.critic = mlp((observation_size, *self.config.critic_hidden, 1))
+        self.log_std = nn.Parameter(torch.full((action_size,), self.config.init_log_std))
+
+    def action_mean(self, observation: torch.Tensor) -> torch.Tensor:
+        """mu(s): the deterministic policy, (n, action_size)."""
+        return self.actor(self.normalizer(observation))
+
+    def value(self, observation: torch.Tensor) -> torch.Tensor:
+        """V(s), (n,)."""
+        return self.critic(self.normalizer(observation)).squeeze(-1)
+
+    def distribution(self, observation: torch.Tensor) -> torch.distributions.Normal:
+        return torch.distributions.Normal(self.action_mean(observation), self.log_std.exp().expand(self.action_size))
+
+    def checkpoint(self, **extra) -> dict:
+        """A `torch.save`-able dict loadable with `weights_only=True`."""
+        return {"format": CHECKPOINT_FORMAT, "observation_size": self.observation_size, "action_size": self.action_size,
+                "policy_config": dataclasses.asdict(self.config), "state_dict": self.state_dict(), **extra}
+
+    @classmethod
+    def from_checkpoint(cls, checkpoint: dict) -> ActorCritic:
+        if checkpoint.get("format") != CHECKPOINT_FORMAT:
+            raise ConfigError(f"not a policy checkpoint (format {checkpoint.get('format')!r}, "
+                              f"expected {CHECKPOINT_FORMAT!r})")
+        config = PolicyConfig(**{k: tuple(v) if isinstance(v, list) else v for k, v in checkpoint["policy_config"].items()})
+        model = cls(checkpoint["observation_size"], config, checkpoint["action_size"])
+        model.load_state_dict(checkpoint["state_dict"])
+        return model
+
+
+def load_checkpoint(path: str | Path) -> dict:
+    """A checkpoint file's dict (tensors and plain data only: `weights_only=True`), with clear errors."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"no policy checkpoint at {path}")
+    try:
+        checkpoint = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # pickle, zip or torch format errors: not a checkpoint of ours
+        raise ConfigError(f"{path} is not a policy checkpoint ({type(exc).__name__}: {exc})") from exc
+    if not isinstance(checkpoint, dict) or checkpoint.get("format") != CHECKPOINT_FORMAT:
+        raise ConfigError(f"{path} is not a policy checkpoint of this project (expected format {CHECKPOINT_FORMAT!r})")
+    return checkpoint
+
+
+class PolicyController:
+    """A trained policy as a `Controller`: its own gait clock, joint history and previous action.
+
+    >>> controller = PolicyController("policies/distilled.pt")
+    >>> episode = run_episode(DigitSim(), controller, Command(vx=0.3), duration_s=10.0)
+    """
+
+    dt = 0.005
+
+    def __init__(self, path: str | Path) -> None:
+        checkpoint = load_checkpoint(path)
+        self.model = ActorCritic.from_checkpoint(checkpoint).eval()
+        self.builder = ObservationBuilder(int(checkpoint["history_length"]))
+        if self.builder.layout.size != self.model.observation_size:
+            raise ConfigError(f"{path}: observation size {self.model.observation_size} does not match its layout "
+                              f"({self.builder.layout.size})")
+        self.action_space = ActionSpace(np.asarray(checkpoint["kp"]), np.asarray(checkpoint["kd"]))
+        low, high = np.asarray(checkpoint["command_range"], float)  # (2, 3): the trained command range
+        self.command_low, self.command_high = low, high
+        self.last_command_clipped = False
+        """Whether the last `act` clipped its command to the trained range."""
+        self.path = Path(path)
+        self._started = False
+
+    def reset(self, state: RobotState) -> None:
+        contact = np.asarray(state.contact, bool)
+        self.builder.reset(state, RIGHT if (contact[RIGHT] and not contact[LEFT]) else LEFT)
+        self._started = True
+
+    def act(self, state: RobotState, command: Command) -> JointCommand:
+        if not isinstance(command, Command):
+            raise ConfigError(f"act expects a Command, got {type(command).__name__}")
+        if not self._started:
+            self.reset(state)
+        raw = command.as_array()
+        clipped = np.clip(raw, self.command_low, self.command_high)
+        self.last_command_clipped = bool(np.any(clipped != raw))
+        observation = self.builder.observe(state, clipped)
+        with torch.inference_mode():
+            action = self.model.action_mean(torch.as_tensor(observation, dtype=torch.float32)[None])[0].numpy()
+        self.builder.record_action(action)
+        return self.action_space.to_command(action.astype(float), state)

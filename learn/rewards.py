@@ -1,0 +1,67 @@
+"""Reward terms of the paper's Table (one small function per term) and their weighted sum.
+
+    lin_vel_tracking   exp(-|v_xy - v_xy_cmd|^2 / delta_xy)     weight  1.2
+    ang_vel_tracking   exp(-(w_z - w_z_cmd)^2 / delta_w)         weight  1.1
+    torque             |tau|^2                                  weight -4e-6
+    base_motion        |w_xy|^2                                 weight -0.6
+
+Velocities are in the heading frame (linear) and the base frame (angular), as the command is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+PAPER_WEIGHTS = {"lin_vel_tracking": 1.2, "ang_vel_tracking": 1.1, "torque": -4e-6, "base_motion": -0.6}
+
+
+def lin_vel_tracking(v_xy_heading: np.ndarray, v_xy_command: np.ndarray, sigma: float) -> float:
+    """exp(-|v_xy - v_xy_cmd|^2 / sigma), velocities in the heading frame [m/s]."""
+    error = np.asarray(v_xy_heading, float) - np.asarray(v_xy_command, float)
+    return float(np.exp(-float(error @ error) / sigma))
+
+
+def ang_vel_tracking(yaw_rate: float, yaw_rate_command: float, sigma: float) -> float:
+    """exp(-(w_z - w_z_cmd)^2 / sigma) [rad/s]."""
+    return float(np.exp(-((yaw_rate - yaw_rate_command) ** 2) / sigma))
+
+
+def torque(tau: np.ndarray) -> float:
+    """|tau|^2 over the leg joints [(N m)^2]."""
+    tau = np.asarray(tau, float)
+    return float(tau @ tau)
+
+
+def base_motion(angvel_base: np.ndarray) -> float:
+    """|w_xy|^2: roll and pitch rates of the base [(rad/s)^2]."""
+    return float(angvel_base[0] ** 2 + angvel_base[1] ** 2)
+
+
+@dataclass(frozen=True)
+class RewardInputs:
+    """What the reward terms read at one tick."""
+
+    v_xy_heading: np.ndarray
+    """(2,) base velocity, heading frame [m/s]."""
+    angvel_base: np.ndarray
+    """(3,) base angular velocity, base frame [rad/s]."""
+    yaw_rate: float
+    """World-frame yaw rate [rad/s]."""
+    command: np.ndarray
+    """(3,) vx, vy, yaw rate."""
+    tau: np.ndarray
+    """(12,) applied joint torques [N m]."""
+
+
+def reward_terms(inputs: RewardInputs, lin_sigma: float, ang_sigma: float) -> dict[str, float]:
+    """Each term's unweighted value."""
+    return {"lin_vel_tracking": lin_vel_tracking(inputs.v_xy_heading, inputs.command[:2], lin_sigma),
+            "ang_vel_tracking": ang_vel_tracking(inputs.yaw_rate, inputs.command[2], ang_sigma),
+            "torque": torque(inputs.tau), "base_motion": base_motion(inputs.angvel_base)}
+
+
+def total_reward(terms: dict[str, float], weights: dict[str, float] = PAPER_WEIGHTS) -> float:
+    """sum_k w_k r_k over the weighted terms."""
+    return float(sum(weights[name] * terms[name] for name in weights))

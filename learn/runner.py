@@ -1,0 +1,148 @@
+"""`DaggerRunner`: the distillation loop (rollout, label, aggregate, fit), logging and checkpoints.
+
+Each iteration k runs every environment for `steps_per_env` ticks from fresh episodes with the
+beta_k-mixture of expert and policy, adds the usable labelled states to the dataset as one shard,
+fits the actor on the whole aggregated dataset and writes a checkpoint atomically. A run killed at
+any moment resumes from its last checkpoint (`resume=True`): shards written after it are reused, the
+rollouts are seeded by (seed, iteration), so the schedule and the dataset are those of an unbroken run.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from learn.action import ActionSpace
+from learn.config import DistillConfig, EnvConfig
+from learn.dagger import DaggerFit, cosine_learning_rate, usable_labels
+from learn.observation import ObservationLayout
+from learn.policy import ActorCritic, load_checkpoint
+from learn.storage import LabelledDataset, atomic_write
+from learn.vec_env import RolloutRequest, VecEnv, make_vec_env
+from mbc.errors import ConfigError
+
+TRAINING_STATE = "training_state.pt"
+POLICY = "policy.pt"
+
+
+def deployable_checkpoint(model: ActorCritic, env: EnvConfig, action_space: ActionSpace, **extra) -> dict:
+    """The networks plus what `PolicyController` needs to run them: history length, PD gains of the
+    action space, and the trained command range."""
+    sampling = env.commands
+    command_range = [[sampling.vx_mps[0], sampling.vy_mps[0], sampling.yaw_rate_radps[0]],
+                     [sampling.vx_mps[1], sampling.vy_mps[1], sampling.yaw_rate_radps[1]]]
+    return model.checkpoint(history_length=env.history_length, kp=action_space.kp.tolist(), kd=action_space.kd.tolist(),
+                            command_range=command_range, **extra)
+
+
+def save_torch(path: Path, payload: dict) -> None:
+    atomic_write(path, lambda file: torch.save(payload, file))
+
+
+def rollout_seed(seed: int, iteration: int) -> int:
+    return int(np.random.SeedSequence([seed, iteration]).generate_state(1)[0])
+
+
+class DaggerRunner:
+    """Runs (or resumes) a distillation in `config.run_dir`."""
+
+    def __init__(self, config: DistillConfig) -> None:
+        self.config = config
+        self.run_dir = Path(config.run_dir)
+        state_path = self.run_dir / TRAINING_STATE
+        if state_path.exists() and not config.resume:
+            raise ConfigError(f"{self.run_dir} already holds a run; pass --resume to continue it or choose another run_dir")
+        if config.resume and not state_path.exists() and not LabelledDataset(self.run_dir / "data").shards_on_disk():
+            raise ConfigError(f"nothing to resume in {self.run_dir} (no {TRAINING_STATE})")
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        layout = ObservationLayout(config.env.history_length)
+        self.model = ActorCritic(layout.size, config.policy)
+        self.action_space = ActionSpace()
+        self.fitter = DaggerFit(self.model, config.dagger.learning_rate)
+        self.dataset = LabelledDataset(self.run_dir / "data", config.dagger.max_dataset_samples)
+        self.start_iteration, self.samples, self.wall_s = 0, 0, 0.0
+        if state_path.exists():
+            self._restore(state_path)
+        (self.run_dir / "config.json").write_text(json.dumps(dataclasses.asdict(config), indent=2, default=str))
+
+    def _restore(self, path: Path) -> None:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+        self.model.load_state_dict(state["policy"]["state_dict"])
+        self.fitter.optimizer.load_state_dict(state["optimizer"])
+        self.start_iteration = int(state["iteration"]) + 1
+        self.samples, self.wall_s = int(state["samples"]), float(state["wall_s"])
+        self.dataset.load([k for k in self.dataset.shards_on_disk() if k < self.start_iteration])
+
+    def learn(self, vec_env: VecEnv | None = None) -> Path:
+        """Run the remaining iterations; returns the path of the deployable policy."""
+        cfg, dagger = self.config, self.config.dagger
+        from torch.utils.tensorboard import SummaryWriter
+
+        own_env = vec_env is None
+        vec_env = vec_env or make_vec_env(cfg.env, cfg.workers.workers, cfg.workers.envs_per_worker)
+        writer = SummaryWriter(str(self.run_dir / "tensorboard"))
+        discard = int(round(dagger.discard_before_fall_s / 0.005))
+        try:
+            bar = tqdm(range(self.start_iteration, dagger.iterations), desc="DAgger", unit="it", initial=self.start_iteration,
+                       total=dagger.iterations, disable=None)
+            for iteration in bar:
+                start = time.perf_counter()
+                beta = dagger.beta(iteration)
+                scalars = {"beta": beta}
+                if iteration in self.dataset.shards_on_disk():  # written before the last kill: reuse it
+                    self.dataset.load([iteration])
+                    self.samples += self.dataset.visited[iteration]
+                else:
+                    policy = None if beta >= 1.0 else deployable_checkpoint(self.model, cfg.env, self.action_space)
+                    rollout = vec_env.collect(RolloutRequest(policy, dagger.steps_per_env, rollout_seed(cfg.seed, iteration),
+                                                             beta=beta))
+                    usable = usable_labels(rollout, discard)
+                    observations, actions = rollout.observations[usable], rollout.expert_actions[usable]
+                    if len(observations):
+                        scalars["loss/on_policy"] = self.fitter.evaluate(observations, actions) if iteration else float("nan")
+                    self.dataset.add(iteration, observations, actions, rollout.monitors[usable], rollout.samples)
+                    self.samples += rollout.samples
+                    episodes = rollout.terminated.sum() + rollout.truncated.sum() + rollout.terminated.shape[1]
+                    scalars |= {"rollout/terminations_per_episode": float(rollout.terminated.sum() / episodes),
+                                "rollout/reward_per_tick": float(rollout.rewards.mean()),
+                                "rollout/usable_label_fraction": float(usable.mean()),
+                                "rollout/samples_per_s": rollout.samples / (time.perf_counter() - start)}
+                collected = time.perf_counter()
+                observations, actions, _ = self.dataset.arrays()
+                progress = iteration / max(dagger.iterations - 1, 1)
+                learning_rate = cosine_learning_rate(dagger.learning_rate, dagger.learning_rate_final, progress)
+                losses = self.fitter.fit(observations, actions, dagger.gradient_steps, dagger.batch_size, learning_rate,
+                                         seed=rollout_seed(cfg.seed + 1, iteration))
+                self.wall_s += time.perf_counter() - start
+                scalars |= {"loss/fit_last_tenth": float(np.mean(losses[-max(len(losses) // 10, 1):])) if losses else np.nan,
+                            "dataset/samples": len(observations), "time/collect_s": collected - start,
+                            "time/fit_s": time.perf_counter() - collected, "learning_rate": learning_rate,
+                            "samples_total": self.samples}
+                self._checkpoint(iteration)
+                for name, value in scalars.items():
+                    writer.add_scalar(name, value, iteration)
+                bar.write(f"iteration {iteration}: " + ", ".join(f"{k} {v:.4g}" for k, v in scalars.items()))
+        finally:
+            writer.close()
+            if own_env:
+                vec_env.close()
+        return self.run_dir / POLICY
+
+    def _checkpoint(self, iteration: int) -> None:
+        policy = deployable_checkpoint(self.model, self.config.env, self.action_space, iteration=iteration,
+                                       samples=self.samples, wall_s=self.wall_s)
+        save_torch(self.run_dir / POLICY, policy)
+        save_torch(self.run_dir / TRAINING_STATE, {"policy": policy, "optimizer": self.fitter.optimizer.state_dict(),
+                                                   "iteration": iteration, "samples": self.samples, "wall_s": self.wall_s})
+
+
+def policy_summary(path: str | Path) -> dict:
+    """Iteration, samples and wall time recorded in a policy checkpoint."""
+    checkpoint = load_checkpoint(path)
+    return {key: checkpoint.get(key) for key in ("iteration", "samples", "wall_s")}

@@ -1,0 +1,144 @@
+"""The walking task: observation layout, action space, reward terms, clocks, termination, bad input."""
+
+import math
+
+import numpy as np
+import pytest
+
+from learn.action import ACTION_DIM, ActionSpace
+from learn.config import CommandSampling, EnvConfig, PushSampling
+from learn.env import WalkEnv, parse_terrain, sample_command, tilt_of
+from learn.observation import ObservationBuilder, ObservationLayout
+from learn.rewards import PAPER_WEIGHTS, RewardInputs, ang_vel_tracking, base_motion, lin_vel_tracking, reward_terms, torque
+from mbc.errors import ConfigError
+from mbc.fuzz import random_joint_positions, random_quaternion_wxyz
+from mbc.types import JointCommand, RobotState
+
+QUIET = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0))
+
+
+def random_robot_state(rng: np.random.Generator) -> RobotState:
+    """A finite state with random orientation, velocities and joints."""
+    return RobotState(time=float(rng.uniform(0, 10)), base_pos=rng.normal(size=3), base_quat=random_quaternion_wxyz(rng),
+                      base_linvel=rng.normal(size=3), base_angvel=rng.normal(size=3), q=random_joint_positions(rng),
+                      qd=rng.normal(size=12), contact=np.array([True, False]))
+
+
+def test_observation_layout_places_each_part_where_it_says(rng):
+    layout = ObservationLayout(history_length=3)
+    assert layout.size == 3 + 3 + 3 + 3 + 12 + 12 + 4 + 24 + 36 + 36
+    builder = ObservationBuilder(3)
+    first = random_robot_state(rng)
+    first.contact = np.array([True, True])
+    builder.reset(first, stance=0)
+    builder.observe(first, np.zeros(3))
+    builder.record_action(np.arange(ACTION_DIM, dtype=float))
+    second = first.copy()
+    second.time += 0.005
+    second.q = first.q + 0.1
+    obs = builder.observe(second, np.array([0.3, -0.1, 0.2]))
+    np.testing.assert_allclose(obs[layout.slice("command")], [0.3, -0.1, 0.2])
+    np.testing.assert_allclose(obs[layout.slice("q")], second.q)
+    np.testing.assert_allclose(obs[layout.slice("previous_action")], np.arange(ACTION_DIM))
+    np.testing.assert_allclose(obs[layout.slice("q_history")][:12], first.q)  # most recent first
+    w, x, y, z = second.base_quat / np.linalg.norm(second.base_quat)
+    rotation = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    np.testing.assert_allclose(obs[layout.slice("projected_gravity")], rotation.T @ [0, 0, -1], atol=1e-9)
+    np.testing.assert_allclose(obs[layout.slice("base_linvel")], rotation.T @ second.base_linvel, atol=1e-9)
+    with pytest.raises(KeyError, match="parts"):
+        layout.slice("camera")
+
+
+def test_action_space_round_trips_and_means_torque(rng):
+    space = ActionSpace()
+    state = random_robot_state(rng)
+    action = rng.normal(size=ACTION_DIM)
+    command = space.to_command(action, state)
+    np.testing.assert_allclose(space.from_command(command, state), action, atol=1e-12)
+    # one action unit on the position part is one torque limit through the stiffness
+    tau = space.kp * (command.q_des - state.q)
+    np.testing.assert_allclose(tau, action[:12] * space.torque_scale, rtol=1e-12)
+    # a feed-forward torque folds into the position term: the same PD torque
+    with_ff = JointCommand(q_des=state.q, qd_des=state.qd, tau_ff=np.full(12, 5.0))
+    np.testing.assert_allclose(space.from_command(with_ff, state)[:12] * space.torque_scale, 5.0)
+
+
+def test_reward_terms_against_hand_computed_values():
+    assert lin_vel_tracking(np.array([0.5, 0.1]), np.array([0.3, 0.0]), 0.25) == pytest.approx(math.exp(-0.05 / 0.25))
+    assert ang_vel_tracking(0.2, -0.1, 0.25) == pytest.approx(math.exp(-0.09 / 0.25))
+    assert torque(np.array([3.0, 4.0] + [0.0] * 10)) == pytest.approx(25.0)
+    assert base_motion(np.array([0.3, -0.4, 7.0])) == pytest.approx(0.25)
+    terms = reward_terms(RewardInputs(np.array([0.3, 0.0]), np.array([0.3, -0.4, 7.0]), -0.1, np.array([0.3, 0.0, -0.1]),
+                                      np.full(12, 10.0)), 0.25, 0.25)
+    total = sum(PAPER_WEIGHTS[k] * v for k, v in terms.items())
+    assert total == pytest.approx(1.2 * 1.0 + 1.1 * 1.0 - 4e-6 * 1200.0 - 0.6 * 0.25)
+
+
+def test_env_clock_agrees_with_the_expert_clock_while_the_expert_walks():
+    env = WalkEnv(QUIET)
+    env.reset(seed=3)
+    env.command = np.array([0.3, 0.0, 0.0])
+    env._next_command_s = math.inf
+    touchdowns = 0
+    for _ in range(600):
+        action, valid = env.label()
+        assert valid
+        expert_clock, env_clock = env.expert.controller.clock, env.builder.clock
+        assert env_clock.stance == expert_clock.stance
+        assert env_clock.phase == pytest.approx(expert_clock.phase, abs=1e-9)
+        step = env.step(action)
+        assert not step.terminated
+        touchdowns = env_clock.touchdowns
+    assert touchdowns >= 6  # 3 s of walking at 0.35 s a step
+
+
+def test_episode_terminates_on_a_fall_and_reports_monitors():
+    env = WalkEnv(QUIET)
+    env.reset(seed=0)
+    limp = np.zeros(ACTION_DIM)
+    limp[:12] = -0.5  # targets far below the joints: the legs give way
+    for _ in range(400):
+        step = env.step(limp)
+        if step.terminated:
+            break
+    assert step.terminated and not step.truncated
+    assert np.all(np.isfinite(env.monitors))
+
+
+def test_episode_truncates_at_its_length():
+    env = WalkEnv(EnvConfig(terrains=("flat",), episode_length_s=0.05, pushes=PushSampling(probability=0.0)))
+    env.reset(seed=0)
+    flags = []
+    for _ in range(10):
+        action, _ = env.label()
+        flags.append(env.step(action).truncated)
+    assert flags == [False] * 9 + [True]
+
+
+def test_commands_are_drawn_within_their_ranges(rng):
+    sampling = CommandSampling(standing_probability=0.2)
+    commands = np.array([sample_command(rng, sampling) for _ in range(2000)])
+    assert np.all(commands[:, 0] >= -0.5) and np.all(commands[:, 0] <= 1.0)
+    assert np.all(np.abs(commands[:, 1]) <= 0.3) and np.all(np.abs(commands[:, 2]) <= 0.8)
+    assert 0.15 < np.mean(np.all(commands == 0, axis=1)) < 0.25
+
+
+def test_tilt_of_a_quaternion():
+    angle = 0.3
+    assert tilt_of(np.array([math.cos(angle / 2), math.sin(angle / 2), 0.0, 0.0])) == pytest.approx(angle)
+
+
+def test_bad_terrain_and_config_values_give_clear_errors():
+    assert parse_terrain("slope:angle_deg=5,length_m=4") == ("slope", {"angle_deg": 5.0, "length_m": 4.0})
+    with pytest.raises(ConfigError, match="key=number"):
+        parse_terrain("slope:angle_deg=steep")
+    with pytest.raises(ConfigError, match="valid terrains"):
+        WalkEnv(EnvConfig(terrains=("lava",)))
+    with pytest.raises(ConfigError, match="low <= high"):
+        CommandSampling(vx_mps=(1.0, -1.0))
+    with pytest.raises(ConfigError, match="without an expert"):
+        env = WalkEnv(QUIET, with_expert=False)
+        env.reset(0)
+        env.label()
