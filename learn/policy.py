@@ -20,7 +20,7 @@ from learn.config import PolicyConfig
 from learn.observation import ObservationBuilder
 from mbc.errors import ConfigError
 from mbc.timing import LEFT, RIGHT
-from mbc.types import Command, JointCommand, RobotState
+from mbc.types import Command, CommandLimits, JointCommand, RobotState
 
 CHECKPOINT_FORMAT = "ppf-digit-policy-1"
 
@@ -127,10 +127,9 @@ class PolicyController:
             raise ConfigError(f"{path}: observation size {self.model.observation_size} does not match its layout "
                               f"({self.builder.layout.size})")
         self.action_space = ActionSpace(np.asarray(checkpoint["kp"]), np.asarray(checkpoint["kd"]))
-        low, high = np.asarray(checkpoint["command_range"], float)  # (2, 3): the trained command range
-        self.command_low, self.command_high = low, high
-        self.last_command_clipped = False
-        """Whether the last `act` clipped its command to the trained range."""
+        low, high = np.asarray(checkpoint["command_range"], float).tolist()  # (2, 3): the trained command range
+        self.command_limits = CommandLimits(*zip(low, high))
+        """The trained command range; beyond it commands are clipped."""
         self.path = Path(path)
         self._started = False
 
@@ -144,10 +143,7 @@ class PolicyController:
             raise ConfigError(f"act expects a Command, got {type(command).__name__}")
         if not self._started:
             self.reset(state)
-        raw = command.as_array()
-        clipped = np.clip(raw, self.command_low, self.command_high)
-        self.last_command_clipped = bool(np.any(clipped != raw))
-        observation = self.builder.observe(state, clipped)
+        observation = self.builder.observe(state, np.array(self.command_limits.clip(command)[0]))
         with torch.inference_mode():
             action = self.model.action_mean(torch.as_tensor(observation, dtype=torch.float32)[None])[0].numpy()
         self.builder.record_action(action)

@@ -39,27 +39,11 @@ from mbc.passivity import PassivityConfig, PassivityQp
 from mbc.pin_robot import PinRobot
 from mbc.swing import SwingConfig, estimate_phase, swing_reference
 from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig
-from mbc.types import Command, JointCommand, RobotState
+from mbc.types import Command, CommandLimits, JointCommand, RobotState
 from robots.digit import constants as c
 
 _JOINT_SPEED_BOUND = (10 * c.SPEED_LIMIT_RADPS).tolist()
 """Joint speeds beyond 10x the motors' limits mark a state as implausible [rad/s]."""
-
-
-@dataclass(frozen=True)
-class CommandLimits:
-    """Command range the controller accepts; beyond it commands are clipped and reported."""
-
-    vx_mps: tuple[float, float] = (-0.5, 1.0)
-    vy_mps: tuple[float, float] = (-0.3, 0.3)
-    yaw_rate_radps: tuple[float, float] = (-0.8, 0.8)
-
-    def clip(self, command: Command) -> tuple[tuple[float, float, float], bool]:
-        """The command clipped to the limits as (vx, vy, yaw_rate), and whether it was clipped."""
-        raw = (command.vx, command.vy, command.yaw_rate)
-        clipped = (min(max(raw[0], self.vx_mps[0]), self.vx_mps[1]), min(max(raw[1], self.vy_mps[0]), self.vy_mps[1]),
-                   min(max(raw[2], self.yaw_rate_radps[0]), self.yaw_rate_radps[1]))
-        return clipped, clipped != raw
 
 
 @dataclass(frozen=True)
@@ -180,6 +164,11 @@ class AlipController:
         if unknown:
             raise ConfigError(f"unknown controller option(s) {unknown}; valid: {valid}")
         return cls(AlipControllerConfig(**overrides))
+
+    @property
+    def command_limits(self) -> CommandLimits:
+        """The command range; beyond it commands are clipped (reported in the diagnostics)."""
+        return self.config.limits
 
     # --- Controller protocol ------------------------------------------------------------------------
 

@@ -8,6 +8,7 @@ Joint arrays follow `robots.digit.constants.JOINT_NAMES`.
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -70,12 +71,40 @@ class Command:
     def __post_init__(self) -> None:
         for name in ("vx", "vy", "yaw_rate"):
             value = getattr(self, name)
-            if not np.isfinite(value):
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                raise ConfigError(f"Command.{name} must be a real number, got {value!r} ({type(value).__name__})")
+            if not math.isfinite(value):
                 raise ConfigError(f"Command.{name} must be finite, got {value}")
 
     def as_array(self) -> np.ndarray:
         """(3,) [vx, vy, yaw_rate]."""
         return np.array([self.vx, self.vy, self.yaw_rate])
+
+
+@dataclass(frozen=True)
+class CommandLimits:
+    """The command range a controller accepts; beyond it commands are clipped and reported."""
+
+    vx_mps: tuple[float, float] = (-0.5, 1.0)
+    vy_mps: tuple[float, float] = (-0.3, 0.3)
+    yaw_rate_radps: tuple[float, float] = (-0.8, 0.8)
+
+    def __post_init__(self) -> None:
+        for name in ("vx_mps", "vy_mps", "yaw_rate_radps"):
+            low, high = getattr(self, name)
+            if not low <= 0.0 <= high:
+                raise ConfigError(f"CommandLimits.{name} must be (low, high) with low <= 0 <= high, got {(low, high)}")
+
+    def clip(self, command: Command) -> tuple[tuple[float, float, float], bool]:
+        """The command clipped to the limits as (vx, vy, yaw_rate), and whether it was clipped."""
+        raw = (command.vx, command.vy, command.yaw_rate)
+        clipped = (min(max(raw[0], self.vx_mps[0]), self.vx_mps[1]), min(max(raw[1], self.vy_mps[0]), self.vy_mps[1]),
+                   min(max(raw[2], self.yaw_rate_radps[0]), self.yaw_rate_radps[1]))
+        return clipped, clipped != raw
+
+    def describe(self) -> str:
+        return (f"vx {self.vx_mps[0]:g}..{self.vx_mps[1]:g} m/s, vy {self.vy_mps[0]:g}..{self.vy_mps[1]:g} m/s, "
+                f"yaw rate {self.yaw_rate_radps[0]:g}..{self.yaw_rate_radps[1]:g} rad/s")
 
 
 @dataclass
@@ -105,7 +134,9 @@ class Controller(Protocol):
     """What drives the robot: the model-based controller and every learned policy.
 
     `dt` is the control period [s]; `reset` starts from a state (standing or mid-gait); `act` maps the
-    measured state and the velocity command to the joint command of this tick."""
+    measured state and the velocity command to the joint command of this tick. A controller with a
+    limited command range says so in a `command_limits: CommandLimits` attribute (`run_episode`
+    then records the command it actually followed)."""
 
     dt: float
 

@@ -17,7 +17,7 @@ from mbc.rollout import run_episode
 from mbc.sim import DigitSim
 from mbc.types import Command
 from mbc.viz import MeshcatViewer, save_all
-from mbc.viz.meshcat_viewer import close_visualizer
+from mbc.viz.meshcat_server import start_server
 
 CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
                   "--disable-component-update", "--no-first-run", "--window-size=640,480"]
@@ -60,11 +60,14 @@ def scene_screenshot(chromium: str, url: str, out, empty_scene, live: bool, atte
 
 @pytest.fixture(scope="module")
 def empty_scene(chromium, tmp_path_factory):
-    empty = meshcat.Visualizer()
+    server, zmq_url, web_url = start_server()
+    empty = meshcat.Visualizer(zmq_url=zmq_url)
     try:
-        yield screenshot(chromium, empty.url(), tmp_path_factory.mktemp("empty") / "empty.png", live=True)
+        yield screenshot(chromium, web_url, tmp_path_factory.mktemp("empty") / "empty.png", live=True)
     finally:
-        close_visualizer(empty)
+        empty.window.zmq_socket.close(linger=0)
+        server.terminate()
+        server.wait()
 
 
 def test_live_viewer_and_exported_html_draw_the_robot(chromium, empty_scene, tmp_path):

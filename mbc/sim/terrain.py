@@ -30,6 +30,8 @@ START_CLEARANCE_M = 0.8
 _X_BACK_M, _X_FRONT_M, _HALF_WIDTH_M = -20.0, 60.0, 10.0
 _BOX_THICKNESS_M = 1.0
 _RGBA = (0.55, 0.6, 0.55, 1.0)
+MAX_STEP_HEIGHT_M = 0.3
+"""Largest riser or bump height a terrain accepts: beyond what Digit's legs can step (hip to sole 0.9 m) [m]."""
 
 
 def _require(condition: bool, message: str) -> None:
@@ -71,7 +73,8 @@ class Uneven:
     """Half-size of the square field around the origin [m]."""
 
     def __post_init__(self) -> None:
-        _require(self.amplitude >= 0, f"uneven amplitude must be >= 0, got {self.amplitude}")
+        _require(0 <= self.amplitude <= MAX_STEP_HEIGHT_M,
+                 f"uneven amplitude must be in [0, {MAX_STEP_HEIGHT_M}] m, got {self.amplitude}")
         _require(self.wavelength_m > 0, f"uneven wavelength_m must be positive, got {self.wavelength_m}")
         _require(self.extent_m > START_CLEARANCE_M, f"uneven extent_m must exceed {START_CLEARANCE_M}, got {self.extent_m}")
 
@@ -89,7 +92,8 @@ class Stairs:
     landing_m: float = 2.0
 
     def __post_init__(self) -> None:
-        _require(self.step_height >= 0, f"stairs step_height must be >= 0, got {self.step_height}")
+        _require(0 <= self.step_height <= MAX_STEP_HEIGHT_M,
+                 f"stairs step_height must be in [0, {MAX_STEP_HEIGHT_M}] m, got {self.step_height}")
         _require(self.step_depth > 0, f"stairs step_depth must be positive, got {self.step_depth}")
         _require(self.num_steps >= 1, f"stairs num_steps must be >= 1, got {self.num_steps}")
         _require(self.run_up_m >= START_CLEARANCE_M, f"stairs run_up_m must be >= {START_CLEARANCE_M}")
@@ -109,7 +113,8 @@ class Course:
         _require(self.num_levels >= 1, f"course num_levels must be >= 1, got {self.num_levels}")
         _require(0 <= self.max_slope_deg < 45, f"course max_slope_deg must be in [0, 45), got {self.max_slope_deg}")
         _require(self.max_amplitude >= 0, f"course max_amplitude must be >= 0, got {self.max_amplitude}")
-        _require(self.max_step_height >= 0, f"course max_step_height must be >= 0, got {self.max_step_height}")
+        _require(0 <= self.max_step_height <= MAX_STEP_HEIGHT_M,
+                 f"course max_step_height must be in [0, {MAX_STEP_HEIGHT_M}] m, got {self.max_step_height}")
         _require(self.run_up_m >= START_CLEARANCE_M, f"course run_up_m must be >= {START_CLEARANCE_M}")
 
 

@@ -1,13 +1,14 @@
 """Meshcat browser viewer: the robot, the terrain, footsteps, the CoM and its ALIP state, the swing
 reference, coloured by model-assumption violation; live, recorded and exported as HTML.
 
-    viewer = MeshcatViewer(sim)           # starts a meshcat server on 127.0.0.1 and prints its URL
+    viewer = MeshcatViewer(sim)           # starts a meshcat server on 127.0.0.1 only, and prints its URL
     run_episode(sim, controller, command, 10.0, on_tick=viewer.on_tick(controller))
     viewer.export_html("walk.html")       # replays the recording, opens without a server
 """
 
 from __future__ import annotations
 
+import atexit
 from pathlib import Path
 
 import meshcat
@@ -22,6 +23,7 @@ from mbc.pin_robot import PinRobot
 from mbc.sim import DigitSim
 from mbc.sim.terrain import TERRAIN_GROUP
 from mbc.types import RobotState
+from mbc.viz.meshcat_server import start_server
 from robots.digit import constants as c
 
 _BODY = 0x5a6478
@@ -53,6 +55,11 @@ class MeshcatViewer:
     """Draws `DigitSim` states and controller diagnostics in meshcat; records for replay."""
 
     def __init__(self, sim: DigitSim | None = None, zmq_url: str | None = None, max_footsteps: int = 40) -> None:
+        """Connect to the meshcat server at `zmq_url`, or start one on loopback that ends with this program."""
+        self._server = None
+        if zmq_url is None:
+            self._server, zmq_url, _ = start_server()
+            atexit.register(self.close)
         self.vis = meshcat.Visualizer(zmq_url=zmq_url)
         print(f"meshcat viewer at {self.url}")
         self.robot = PinRobot()
@@ -201,15 +208,9 @@ class MeshcatViewer:
         return path
 
     def close(self) -> None:
-        """Stop the meshcat server this viewer started."""
-        close_visualizer(self.vis)
-
-
-def close_visualizer(vis: meshcat.Visualizer) -> None:
-    """Stop a visualizer's server subprocess and socket (meshcat 0.3.2's own `close` is broken)."""
-    window = vis.window
-    if getattr(window, "server_proc", None) is not None:
-        window.server_proc.terminate()
-        window.server_proc.wait(timeout=10)
-        window.server_proc = None
-    window.zmq_socket.close(linger=0)
+        """Close the connection and stop the meshcat server this viewer started (idempotent)."""
+        self.vis.window.zmq_socket.close(linger=0)
+        if self._server is not None:
+            self._server.terminate()
+            self._server.wait(timeout=10)
+            self._server = None

@@ -1,0 +1,69 @@
+"""Policy networks, checkpoints, and the shipped distilled policy walking as a `Controller`."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from learn.action import ACTION_DIM
+from learn.config import EnvConfig
+from learn.observation import ObservationLayout
+from learn.policy import ActorCritic, Normalizer, PolicyController, load_checkpoint
+from learn.runner import deployable_checkpoint, save_torch
+from learn.action import ActionSpace
+from mbc.errors import ConfigError
+from mbc.rollout import run_episode
+from mbc.sim import DigitSim
+from mbc.types import Command, Controller
+
+ROOT = Path(__file__).resolve().parents[1]
+SHIPPED = ROOT / "policies" / "distilled.pt"
+
+
+def test_normalizer_round_trip_and_statistics(rng):
+    data = rng.normal(loc=[1.0, -3.0, 0.0], scale=[2.0, 0.5, 0.0], size=(5000, 3))
+    normalizer = Normalizer(3)
+    normalizer.set_statistics(data)
+    x = torch.as_tensor(data, dtype=torch.float32)
+    y = normalizer(x)
+    np.testing.assert_allclose(y[:, :2].mean(0).numpy(), 0.0, atol=1e-4)
+    np.testing.assert_allclose(y[:, :2].std(0).numpy(), 1.0, atol=1e-3)
+    assert torch.isfinite(y).all()  # the constant feature stays finite (std floored)
+    torch.testing.assert_close(normalizer.inverse(y), x, atol=1e-5, rtol=1e-5)
+
+
+def test_checkpoint_round_trip_with_weights_only(tmp_path, rng):
+    config = EnvConfig()
+    model = ActorCritic(ObservationLayout(config.history_length).size)
+    model.normalizer.set_statistics(rng.normal(size=(100, model.observation_size)))
+    path = tmp_path / "policy.pt"
+    save_torch(path, deployable_checkpoint(model, config, ActionSpace()))
+    loaded = ActorCritic.from_checkpoint(load_checkpoint(path))
+    obs = torch.as_tensor(rng.normal(size=(4, model.observation_size)), dtype=torch.float32)
+    torch.testing.assert_close(loaded.action_mean(obs), model.action_mean(obs))
+    torch.testing.assert_close(loaded.value(obs), model.value(obs))
+    assert loaded.action_mean(obs).shape == (4, ACTION_DIM)
+
+
+def test_files_that_are_not_policies_give_clear_errors(tmp_path):
+    with pytest.raises(ConfigError, match="no policy checkpoint"):
+        PolicyController(tmp_path / "missing.pt")
+    text = tmp_path / "notes.pt"
+    text.write_text("not a checkpoint")
+    with pytest.raises(ConfigError, match="not a policy checkpoint"):
+        PolicyController(text)
+    other = tmp_path / "other.pt"
+    torch.save({"weights": torch.zeros(3)}, other)
+    with pytest.raises(ConfigError, match="not a policy checkpoint of this project"):
+        PolicyController(other)
+
+
+def test_shipped_policy_walks_as_a_controller():
+    controller = PolicyController(SHIPPED)
+    assert isinstance(controller, Controller)
+    episode = run_episode(DigitSim(seed=1), controller, Command(0.4, 0.0, 0.0), duration_s=6.0)
+    assert not episode.fell
+    assert episode.base_pos[-1][0] > 1.2  # 0.4 m/s after a start from standing
+    mean = episode.mean_velocity(since_s=3.0)
+    assert abs(mean[0] - 0.4) < 0.1 and abs(mean[1]) < 0.1
