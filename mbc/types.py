@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 
@@ -130,6 +130,7 @@ class JointCommand:
         return cls(q_des=np.array(q, dtype=float), qd_des=np.zeros(NUM_JOINTS))
 
 
+@runtime_checkable
 class Controller(Protocol):
     """What drives the robot: the model-based controller and every learned policy.
 

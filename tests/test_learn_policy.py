@@ -6,12 +6,11 @@ import numpy as np
 import pytest
 import torch
 
-from learn.action import ACTION_DIM
+from learn.action import ACTION_DIM, ActionSpace
 from learn.config import EnvConfig
 from learn.observation import ObservationLayout
 from learn.policy import ActorCritic, Normalizer, PolicyController, load_checkpoint
 from learn.runner import deployable_checkpoint, save_torch
-from learn.action import ActionSpace
 from mbc.errors import ConfigError
 from mbc.rollout import run_episode
 from mbc.sim import DigitSim
