@@ -30,7 +30,7 @@ def main(args: Args) -> None:
     config = AlipMpcConfig(horizon_steps=args.horizon_steps)
     mpc = AlipMpc(model, config)
     rng = np.random.default_rng(args.seed)
-    T = config.step_duration_s
+    T = mpc.timing.step_duration_s
     states = [(rng.uniform(-0.1, 0.1, 2), model.mz * rng.uniform(-0.6, 0.6, 2), rng.uniform(0, T), rng.choice([-1, 1]))
               for _ in range(args.solves)]
     for fixed in (True, False):

@@ -20,7 +20,7 @@ from learn.config import PolicyConfig
 from learn.observation import ObservationBuilder
 from mbc.errors import ConfigError
 from mbc.timing import LEFT, RIGHT
-from mbc.types import Command, CommandLimits, JointCommand, RobotState
+from mbc.types import CONTROL_PERIOD_S, Command, CommandLimits, JointCommand, RobotState
 
 CHECKPOINT_FORMAT = "ppf-digit-policy-1"
 
@@ -117,7 +117,7 @@ class PolicyController:
     >>> episode = run_episode(DigitSim(), controller, Command(vx=0.3), duration_s=10.0)
     """
 
-    dt = 0.005
+    dt = CONTROL_PERIOD_S
 
     def __init__(self, path: str | Path) -> None:
         checkpoint = load_checkpoint(path)
@@ -132,6 +132,11 @@ class PolicyController:
         """The trained command range; beyond it commands are clipped."""
         self.path = Path(path)
         self._started = False
+
+    @property
+    def pd_gains(self) -> tuple[np.ndarray, np.ndarray]:
+        """(kp, kd) of the action space the policy was trained in."""
+        return self.action_space.kp, self.action_space.kd
 
     def reset(self, state: RobotState) -> None:
         contact = np.asarray(state.contact, bool)

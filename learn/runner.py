@@ -26,6 +26,7 @@ from learn.policy import ActorCritic, load_checkpoint
 from learn.storage import LabelledDataset, atomic_write
 from learn.vec_env import RolloutRequest, VecEnv, make_vec_env
 from mbc.errors import ConfigError
+from mbc.types import CONTROL_PERIOD_S
 
 TRAINING_STATE = "training_state.pt"
 POLICY = "policy.pt"
@@ -87,7 +88,7 @@ class DaggerRunner:
         own_env = vec_env is None
         vec_env = vec_env or make_vec_env(cfg.env, cfg.workers.workers, cfg.workers.envs_per_worker)
         writer = SummaryWriter(str(self.run_dir / "tensorboard"))
-        discard = int(round(dagger.discard_before_fall_s / 0.005))
+        discard = int(round(dagger.discard_before_fall_s / CONTROL_PERIOD_S))
         try:
             bar = tqdm(range(self.start_iteration, dagger.iterations), desc="DAgger", unit="it", initial=self.start_iteration,
                        total=dagger.iterations, disable=None)

@@ -72,25 +72,32 @@ class AlipModel:
     def mz(self) -> float:
         return self.mass * self.com_height
 
+    def flow(self, x, L, t, cosh=np.cosh, sinh=np.sinh):
+        """The closed-form flow without ankle torque, the one place it is written:
+        x(t) = cosh(wt) x + sinh(wt) L / (m z w),  L(t) = m z w sinh(wt) x + cosh(wt) L.
+
+        No checks; `cosh`/`sinh` select the arithmetic: numpy (default, broadcasting), `math` for
+        plain floats in the control tick, casadi's for symbols in the MPC."""
+        wt, mzw = self.omega * t, self.mz * self.omega
+        ch, sh = cosh(wt), sinh(wt)
+        return ch * x + sh * L / mzw, mzw * sh * x + ch * L
+
     def propagate(self, x, L, t, u_ankle=0.0) -> tuple[np.ndarray, np.ndarray]:
         """State (x [m], L [kg m^2/s]) after time t [s] >= 0 under constant ankle torque [N m].
 
-        All arguments broadcast against each other.
+        All arguments broadcast against each other. A constant ankle torque u shifts the equilibrium
+        to x = -u / (m g): the torque-free flow of x + u / (m g).
         """
         x, L, u = _finite("x", x), _finite("L", L), _finite("u_ankle", u_ankle)
-        wt = self.omega * _durations("t", t, allow_zero=True)
-        ch, sh = np.cosh(wt), np.sinh(wt)
+        t = _durations("t", t, allow_zero=True)
         shift = u / (self.mass * self.gravity)
-        x_shifted = x + shift
-        x_t = ch * x_shifted + sh * L / (self.mz * self.omega) - shift
-        L_t = self.mz * self.omega * sh * x_shifted + ch * L
-        return x_t, L_t
+        x_t, L_t = self.flow(x + shift, L, t)
+        return x_t - shift, L_t
 
     def transition_matrix(self, t: float) -> np.ndarray:
-        """(2, 2) A(t) with [x, L](t) = A(t) [x, L](0) for zero ankle torque."""
-        wt = self.omega * float(_durations("t", t, allow_zero=True))
-        ch, sh = math.cosh(wt), math.sinh(wt)
-        return np.array([[ch, sh / (self.mz * self.omega)], [self.mz * self.omega * sh, ch]])
+        """(2, 2) A(t) with [x, L](t) = A(t) [x, L](0) for zero ankle torque: the flow of the unit states."""
+        t = float(_durations("t", t, allow_zero=True))
+        return np.array(self.flow(np.eye(2)[0], np.eye(2)[1], t))
 
     def step_to_step(self, T: float) -> tuple[np.ndarray, np.ndarray]:
         """(A, B) of the pre-impact map s_next = A s + B u_step for a step of duration T [s].
@@ -118,9 +125,8 @@ class AlipModel:
         then lands at x_e + `foot_placement`(L_e, L_des / (m z), T), so that the step after ends with
         momentum L_des. Plain floats and no checks: this runs every control tick.
         """
-        wt, wT, mzw = self.omega * time_left, self.omega * T, self.mz * self.omega
-        ch, sh = math.cosh(wt), math.sinh(wt)
-        x_end, L_end = ch * x + sh * L / mzw, mzw * sh * x + ch * L
+        wT, mzw = self.omega * T, self.mz * self.omega
+        x_end, L_end = self.flow(x, L, time_left, math.cosh, math.sinh)
         return x_end + (L_end * math.cosh(wT) - L_des) / (mzw * math.sinh(wT))
 
     def time_left_for_step(self, x: float, L: float, L_des: float, T: float, step: float,

@@ -29,24 +29,20 @@ import numpy as np
 
 from mbc.alip import AlipModel
 from mbc.errors import ConfigError
+from mbc.timing import TimingConfig
 
 
 @dataclass(frozen=True)
 class AlipMpcConfig:
-    """MPC horizon, bounds and weights."""
+    """MPC horizon, the longest step, and weights. The step's reach and its nominal and shortest
+    durations are the gait's (`StepReach`, `TimingConfig`), given to `AlipMpc` by its user."""
 
     horizon_steps: int = 3
     """Number of future touchdowns N."""
-    step_duration_s: float = 0.35
-    """Nominal step duration [s]."""
-    min_step_duration_s: float = 0.25
     max_step_duration_s: float = 0.45
+    """Longest step the MPC may plan [s]."""
     min_time_left_s: float = 0.03
     """Shortest time to which the MPC may shorten the current step [s] (the swing foot must get there)."""
-    max_step_length_m: float = 0.6
-    """Bound on the sagittal step |u^x| [m]."""
-    min_step_width_m: float = 0.12
-    max_step_width_m: float = 0.5
     timing_weight: float = 2.0
     """Weight of the duration deviations [(m/s)^2 / s^2]."""
     step_weight: float = 1e-6
@@ -55,10 +51,22 @@ class AlipMpcConfig:
     def __post_init__(self) -> None:
         if self.horizon_steps < 1:
             raise ConfigError(f"horizon_steps must be >= 1, got {self.horizon_steps}")
-        if not 0 < self.min_step_duration_s <= self.step_duration_s <= self.max_step_duration_s:
-            raise ConfigError("need 0 < min_step_duration_s <= step_duration_s <= max_step_duration_s")
-        if not 0 < self.min_step_width_m < self.max_step_width_m:
-            raise ConfigError("need 0 < min_step_width_m < max_step_width_m")
+
+
+@dataclass(frozen=True)
+class StepReach:
+    """Where a step may land: sagittal length and lateral distance between the feet [m]."""
+
+    max_length_m: float = 0.5
+    """Bound on the sagittal step |u^x| [m]."""
+    min_width_m: float = 0.10
+    """Smallest lateral distance between the feet at touchdown (no crossing) [m]."""
+    max_width_m: float = 0.60
+    """Largest lateral step [m]."""
+
+    def __post_init__(self) -> None:
+        if not (self.max_length_m > 0 and 0 < self.min_width_m < self.max_width_m):
+            raise ConfigError("need max_length_m > 0 and 0 < min_width_m < max_width_m")
 
 
 @dataclass(frozen=True)
@@ -82,16 +90,17 @@ class MpcSolution:
 class AlipMpc:
     """Multi-step ALIP MPC with step timing as a decision variable."""
 
-    def __init__(self, model: AlipModel, config: AlipMpcConfig | None = None) -> None:
+    def __init__(self, model: AlipModel, config: AlipMpcConfig | None = None, reach: StepReach | None = None,
+                 timing: TimingConfig | None = None) -> None:
         self.model = model
         self.config = config or AlipMpcConfig()
+        self.reach = reach or StepReach()
+        self.timing = timing or TimingConfig()
+        if self.config.max_step_duration_s < self.timing.step_duration_s:
+            raise ConfigError(f"max_step_duration_s ({self.config.max_step_duration_s}) is below the nominal step "
+                              f"duration ({self.timing.step_duration_s})")
         self._build()
         self._warm: np.ndarray | None = None
-
-    def _flow(self, x, L, t):
-        w, mz = self.model.omega, self.model.mz
-        ch, sh = ca.cosh(w * t), ca.sinh(w * t)
-        return ch * x + sh * L / (mz * w), mz * w * sh * x + ch * L
 
     def _build(self) -> None:
         n = self.config.horizon_steps
@@ -104,9 +113,9 @@ class AlipMpc:
         scale = 1.0 / self.model.mz**2
         cost = w_tau * ca.sumsqr(tau - tau_nom) + self.config.step_weight * ca.sumsqr(steps - u_ref)
         for axis in range(2):
-            x, L = self._flow(x_now[axis], L_now[axis], tau[0])
+            x, L = self.model.flow(x_now[axis], L_now[axis], tau[0], ca.cosh, ca.sinh)
             for k in range(n):
-                x, L = self._flow(x - steps[k, axis], L, tau[k + 1])
+                x, L = self.model.flow(x - steps[k, axis], L, tau[k + 1], ca.cosh, ca.sinh)
                 cost += scale * (L - L_des[k, axis]) ** 2
         variables = ca.vertcat(ca.vec(steps), tau)
         parameters = ca.vertcat(x_now, L_now, ca.vec(L_des), tau_nom, ca.vec(u_ref), w_tau)
@@ -128,7 +137,8 @@ class AlipMpc:
         one), -1 otherwise; L_des: (N, 2) desired pre-impact momenta after each touchdown;
         fixed_timing: hold all durations at their nominal values.
         """
-        cfg, n = self.config, self.config.horizon_steps
+        cfg, reach, n = self.config, self.reach, self.config.horizon_steps
+        nominal, shortest = self.timing.step_duration_s, self.timing.min_step_duration_s
         x_now, L_now = np.asarray(x_now, float), np.asarray(L_now, float)
         L_des = np.broadcast_to(np.asarray(L_des, float), (n, 2))
         for name, value in (("x_now", x_now), ("L_now", L_now), ("L_des", L_des)):
@@ -136,21 +146,18 @@ class AlipMpc:
                 raise ConfigError(f"{name} must be finite, got {value}")
         if stance_sign not in (1, -1):
             raise ConfigError(f"stance_sign must be +1 (left stance) or -1 (right stance), got {stance_sign}")
-        time_left = max(cfg.step_duration_s - time_in_step_s, 0.0)
-        tau_nom = np.r_[time_left, np.full(n, cfg.step_duration_s)]
+        time_left = max(nominal - time_in_step_s, 0.0)
+        tau_nom = np.r_[time_left, np.full(n, nominal)]
         sides = -stance_sign * (-1.0) ** np.arange(n)  # lateral direction of each step
-        width = (cfg.min_step_width_m + cfg.max_step_width_m) / 2
+        width = (reach.min_width_m + reach.max_width_m) / 2
         u_ref = np.c_[np.zeros(n), sides * width]
-        lower_u = np.r_[np.full(n, -cfg.max_step_length_m),
-                        np.where(sides > 0, cfg.min_step_width_m, -cfg.max_step_width_m)]
-        upper_u = np.r_[np.full(n, cfg.max_step_length_m),
-                        np.where(sides > 0, cfg.max_step_width_m, -cfg.min_step_width_m)]
+        lower_u = np.r_[np.full(n, -reach.max_length_m), np.where(sides > 0, reach.min_width_m, -reach.max_width_m)]
+        upper_u = np.r_[np.full(n, reach.max_length_m), np.where(sides > 0, reach.max_width_m, -reach.min_width_m)]
         if fixed_timing:
             lower_tau = upper_tau = tau_nom
         else:
             # a step already closer to its nominal end than min_time_left is not lengthened to it
-            lower_tau = np.r_[min(time_left, max(cfg.min_step_duration_s - time_in_step_s, cfg.min_time_left_s)),
-                              np.full(n, cfg.min_step_duration_s)]
+            lower_tau = np.r_[min(time_left, max(shortest - time_in_step_s, cfg.min_time_left_s)), np.full(n, shortest)]
             upper_tau = np.r_[max(cfg.max_step_duration_s - time_in_step_s, cfg.min_time_left_s),
                               np.full(n, cfg.max_step_duration_s)]
         lower, upper = np.r_[lower_u, lower_tau], np.r_[upper_u, upper_tau]

@@ -29,7 +29,7 @@ from typing import Literal
 import numpy as np
 
 from mbc.alip import AlipModel
-from mbc.alip_mpc import AlipMpc, AlipMpcConfig
+from mbc.alip_mpc import AlipMpc, AlipMpcConfig, StepReach
 from mbc.alip_state import AlipState, alip_state
 from mbc.assumptions import AssumptionReport, saturation
 from mbc.errors import ConfigError
@@ -39,7 +39,7 @@ from mbc.passivity import PassivityConfig, PassivityQp
 from mbc.pin_robot import PinRobot
 from mbc.swing import SwingConfig, estimate_phase, swing_reference
 from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig
-from mbc.types import Command, CommandLimits, JointCommand, RobotState
+from mbc.types import CONTROL_PERIOD_S, Command, CommandLimits, JointCommand, RobotState
 from robots.digit import constants as c
 
 _JOINT_SPEED_BOUND = (10 * c.SPEED_LIMIT_RADPS).tolist()
@@ -132,7 +132,7 @@ class ControllerDiagnostics:
 class AlipController:
     """ALIP walking controller for Digit; implements the `Controller` protocol at 200 Hz."""
 
-    dt = 0.005
+    dt = CONTROL_PERIOD_S
 
     def __init__(self, config: AlipControllerConfig | None = None) -> None:
         self.config = cfg = config or AlipControllerConfig()
@@ -141,10 +141,8 @@ class AlipController:
         self.clock = GaitClock(cfg.timing)
         self.ik = WholeBodyIK(cfg.ik, dt=self.dt)
         self.qp = PassivityQp(cfg.qp)
-        self.mpc = AlipMpc(self.alip, dataclasses.replace(
-            cfg.mpc, step_duration_s=cfg.timing.step_duration_s, max_step_length_m=cfg.max_step_length_m,
-            min_step_width_m=cfg.min_step_width_m, max_step_width_m=cfg.max_step_width_m)) \
-            if cfg.foot_placement == "mpc" else None
+        reach = StepReach(cfg.max_step_length_m, cfg.min_step_width_m, cfg.max_step_width_m)
+        self.mpc = AlipMpc(self.alip, cfg.mpc, reach, cfg.timing) if cfg.foot_placement == "mpc" else None
         self._kp, self._kd = np.asarray(cfg.kp, float).tolist(), np.asarray(cfg.kd, float).tolist()
         self._gravity_z = float(self.robot.model.gravity.linear[2])  # -9.81 m/s^2
         self._zero_joint_acceleration = np.zeros(c.NUM_JOINTS)  # qdd_des: the IK gives positions and velocities
@@ -164,6 +162,11 @@ class AlipController:
         if unknown:
             raise ConfigError(f"unknown controller option(s) {unknown}; valid: {valid}")
         return cls(AlipControllerConfig(**overrides))
+
+    @property
+    def pd_gains(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(kp, kd) the PD action-space conversion assumes the simulator applies; None in torque mode."""
+        return (np.asarray(self.config.kp), np.asarray(self.config.kd)) if self.config.output == "pd" else None
 
     @property
     def command_limits(self) -> CommandLimits:

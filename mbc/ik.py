@@ -23,6 +23,7 @@ import placo
 from mbc.errors import ConfigError
 from mbc.geometry import yaw_rotation
 from mbc.robot import JointMap
+from mbc.types import CONTROL_PERIOD_S
 from robots.digit import constants as c
 from robots.digit.urdf import URDF_PATH
 
@@ -101,7 +102,7 @@ def _pose(position: list[float], yaw: float, normal: np.ndarray) -> np.ndarray:
 class WholeBodyIK:
     """Joint targets from task targets, with placo's kinematics solver."""
 
-    def __init__(self, config: IkConfig | None = None, dt: float = 0.005) -> None:
+    def __init__(self, config: IkConfig | None = None, dt: float = CONTROL_PERIOD_S) -> None:
         self.config = cfg = config or IkConfig()
         self.dt = dt
         self.robot = placo.RobotWrapper(str(URDF_PATH), placo.Flags.ignore_collisions)

@@ -30,8 +30,8 @@ GROUND_CONTYPE, GROUND_CONAFFINITY = 1, 1
 UPPER_CONTYPE, UPPER_CONAFFINITY = 1, 0
 LOWER_CONTYPE = {"left": 1 | 2, "right": 1 | 4}
 LOWER_CONAFFINITY = {"left": 4, "right": 2}
-FOOT_FRICTION = (1.0, 0.02, 0.001)
-"""Sliding, torsional, rolling friction of the foot boxes (MuJoCo uses the max of the pair)."""
+CONTACT_FRICTION = (1.0, 0.02, 0.001)
+"""Sliding, torsional, rolling friction of the foot boxes and the ground (MuJoCo uses the max of the pair)."""
 
 
 def _check_file(path: Path) -> Path:
@@ -97,7 +97,7 @@ def _add_leg_geoms(spec: mujoco.MjSpec, side: str, foot: str) -> None:
     box = foot_body.first_geom()
     box.name = f"{foot}_box"
     box.contype, box.conaffinity = LOWER_CONTYPE[side], LOWER_CONAFFINITY[side]
-    box.friction = FOOT_FRICTION
+    box.friction = CONTACT_FRICTION
     box.rgba = [0.8, 0.5, 0.2, 1]
     margin = 0.01
     foot_body.add_site(name=f"{foot}_touch", type=mujoco.mjtGeom.mjGEOM_BOX, pos=box.pos,

@@ -177,6 +177,11 @@ def run_episode(sim: DigitSim, controller: Controller, commands: CommandSchedule
     if abs(controller.dt - sim.dt) > 1e-12:
         raise ConfigError(f"the controller runs every {controller.dt} s but the simulator steps {sim.dt} s per call")
     check_schedule(commands)
+    gains = getattr(controller, "pd_gains", None)
+    if gains is not None and not (np.allclose(gains[0], sim.kp) and np.allclose(gains[1], sim.kd)):
+        raise ConfigError("the controller's joint targets assume PD gains other than the simulator's: "
+                          f"kp {np.round(gains[0], 1).tolist()} kd {np.round(gains[1], 1).tolist()} against "
+                          f"kp {np.round(sim.kp, 1).tolist()} kd {np.round(sim.kd, 1).tolist()}")
     limits = getattr(controller, "command_limits", None)
     if state is None:
         state = sim.reset()

@@ -130,6 +130,10 @@ class JointCommand:
         return cls(q_des=np.array(q, dtype=float), qd_des=np.zeros(NUM_JOINTS))
 
 
+CONTROL_PERIOD_S = 0.005
+"""The control period of every controller and of `DigitSim.step`: 200 Hz [s]."""
+
+
 @runtime_checkable
 class Controller(Protocol):
     """What drives the robot: the model-based controller and every learned policy.
@@ -137,7 +141,8 @@ class Controller(Protocol):
     `dt` is the control period [s]; `reset` starts from a state (standing or mid-gait); `act` maps the
     measured state and the velocity command to the joint command of this tick. A controller with a
     limited command range says so in a `command_limits: CommandLimits` attribute (`run_episode`
-    then records the command it actually followed)."""
+    then records the command it actually followed); one whose targets assume the simulator's PD
+    gains says which in `pd_gains: (kp, kd)` (`run_episode` refuses a simulator with other gains)."""
 
     dt: float
 

@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from mbc.alip import AlipModel
-from mbc.alip_mpc import AlipMpc, AlipMpcConfig
+from mbc.alip_mpc import AlipMpc, AlipMpcConfig, StepReach
 from mbc.errors import ConfigError
+from mbc.timing import TimingConfig
 
 MODEL = AlipModel(47.93, 0.95)
 T = 0.35
@@ -23,7 +24,7 @@ def desired(stance_sign: int, v=(0.4, 0.0), width=0.3, n=3) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def mpc():
-    return AlipMpc(MODEL, AlipMpcConfig(step_duration_s=T))
+    return AlipMpc(MODEL, timing=TimingConfig(step_duration_s=T))
 
 
 @pytest.mark.parametrize("fixed_timing", [True, False])
@@ -54,14 +55,14 @@ def test_step_bounds_bind_and_timing_adapts(mpc):
     L_des = desired(+1)
     fixed = mpc.solve(x_now, L_now, elapsed, +1, L_des, fixed_timing=True)
     free = mpc.solve(x_now, L_now, elapsed, +1, L_des)
-    cfg = mpc.config
+    reach = mpc.reach
     for solution in (fixed, free):
         assert solution.success
-        assert np.all(np.abs(solution.steps_m[:, 0]) <= cfg.max_step_length_m + 1e-8)
+        assert np.all(np.abs(solution.steps_m[:, 0]) <= reach.max_length_m + 1e-8)
         signs = np.array([-1, 1, -1])
-        assert np.all(signs * solution.steps_m[:, 1] >= cfg.min_step_width_m - 1e-8)
-        assert np.all(signs * solution.steps_m[:, 1] <= cfg.max_step_width_m + 1e-8)
-    assert fixed.steps_m[0, 0] == pytest.approx(cfg.max_step_length_m, abs=1e-6)
+        assert np.all(signs * solution.steps_m[:, 1] >= reach.min_width_m - 1e-8)
+        assert np.all(signs * solution.steps_m[:, 1] <= reach.max_width_m + 1e-8)
+    assert fixed.steps_m[0, 0] == pytest.approx(reach.max_length_m, abs=1e-6)
     assert free.time_left_s < fixed.time_left_s - 0.02  # touch down earlier to catch the fall
 
     def tracking_error(solution):
@@ -79,9 +80,24 @@ def test_lateral_width_bound_binds(mpc):
     x_now, L_now = np.array([0.0, -0.05]), np.array([0.0, 0.0])
     # a large rightward momentum after a right step would need the right foot left of the left one
     L_des = desired(+1)
-    L_des[0, 1] = -60.0
+    L_des[0, 1] = -90.0
     solution = mpc.solve(x_now, L_now, 0.1, +1, L_des, fixed_timing=True)
-    assert solution.steps_m[0, 1] == pytest.approx(-mpc.config.min_step_width_m, abs=1e-6)
+    assert solution.steps_m[0, 1] == pytest.approx(-mpc.reach.min_width_m, abs=1e-6)
+
+
+def test_the_controller_gives_the_mpc_its_own_reach_and_timing():
+    """One set of step bounds: the controller's (there is no second copy in AlipMpcConfig to ignore)."""
+    from mbc.controller import AlipController
+
+    controller = AlipController.for_digit(foot_placement="mpc", max_step_length_m=0.3, min_step_width_m=0.15,
+                                          timing=TimingConfig(step_duration_s=0.4, min_step_duration_s=0.3))
+    assert controller.mpc.reach == StepReach(0.3, 0.15, controller.config.max_step_width_m)
+    assert controller.mpc.timing is controller.config.timing
+    x_now, L_now = np.array([0.1, -0.1]), np.array([MODEL.mz * 2.0, 0.0])
+    solution = controller.mpc.solve(x_now, L_now, 0.05, +1, desired(+1), fixed_timing=True)
+    assert solution.steps_m[0, 0] == pytest.approx(0.3, abs=1e-6)
+    assert not {"max_step_length_m", "min_step_width_m", "max_step_width_m", "step_duration_s"} & set(
+        AlipMpcConfig.__dataclass_fields__)
 
 
 def test_bad_input(mpc):

@@ -20,7 +20,7 @@ from learn.storage import LabelledDataset
 from learn.vec_env import InProcessVecEnv, Rollout, RolloutRequest
 from mbc.controller import AlipController
 from mbc.errors import ConfigError
-from mbc.types import Command
+from mbc.types import CONTROL_PERIOD_S, Command
 
 ROOT = Path(__file__).resolve().parents[1]
 QUIET = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0))
@@ -105,7 +105,7 @@ def test_dataset_grows_by_exactly_the_usable_labelled_states(tmp_path):
     runner = DaggerRunner(_tiny(tmp_path / "run"))
     vec_env = _RecordingVecEnv(QUIET, 2)
     runner.learn(vec_env)
-    discard = int(round(runner.config.dagger.discard_before_fall_s / 0.005))
+    discard = int(round(runner.config.dagger.discard_before_fall_s / CONTROL_PERIOD_S))
     expected = [int(usable_labels(r, discard).sum()) for r in vec_env.rollouts]
     shards = LabelledDataset(tmp_path / "run" / "data")
     shards.load(shards.shards_on_disk())

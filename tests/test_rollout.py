@@ -150,3 +150,15 @@ def test_walk_example_reports_clipping_and_a_fall_and_writes_valid_json(tmp_path
     assert summary["command_followed"] == [1.0, 0.0, 0.0] and summary["fall_time_s"] is None
     fell = _walk("--vx", "0.2", "--duration", "3", "--push-force", "0", "900", "0", "--push-time", "0.5")
     assert fell.returncode == 1 and "fell: True" in fell.stdout
+
+
+def test_pd_gains_of_controller_and_simulator_must_agree():
+    from mbc.controller import AlipController
+    from mbc.sim import SimConfig
+    from robots.digit import constants as c
+
+    stiffer = DigitSim(config=SimConfig(kp=2 * c.KP_DEFAULT))
+    with pytest.raises(ConfigError, match="PD gains other than the simulator's"):
+        run_episode(stiffer, AlipController.for_digit(), Command(), 0.1)
+    run_episode(stiffer, AlipController.for_digit(kp=2 * c.KP_DEFAULT), Command(), 0.1)  # told: fine
+    run_episode(stiffer, AlipController.for_digit(output="torque"), Command(), 0.1)  # no PD conversion

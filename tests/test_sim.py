@@ -143,8 +143,10 @@ def test_actuator_delay_holds_previous_command():
 def test_bad_input_errors_name_valid_choices():
     with pytest.raises(ConfigError, match="valid terrains.*flat"):
         DigitSim("lava")
-    with pytest.raises(ConfigError, match="amplitude must be >= 0"):
+    with pytest.raises(ConfigError, match=r"amplitude must be in \[0, 0.3\] m"):
         DigitSim("uneven", amplitude=-0.01)
+    with pytest.raises(ConfigError, match=r"step_height must be in \[0, 0.3\] m, got 1.0"):
+        DigitSim("stairs", step_height=1.0)
     with pytest.raises(ConfigError, match="valid parameters.*angle_deg"):
         DigitSim("slope", angel_deg=5.0)
     with pytest.raises(ConfigError, match=r"shape \(12,\)"):

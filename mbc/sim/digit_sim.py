@@ -18,7 +18,7 @@ from mbc.errors import ConfigError, MbcError
 from mbc.robot import JointMap, as_slice, digit_mjspec
 from mbc.sim.domain import DomainParams
 from mbc.sim.terrain import TERRAIN_GROUP, TerrainConfig, add_terrain, make_terrain
-from mbc.types import JointCommand, RobotState
+from mbc.types import CONTROL_PERIOD_S, JointCommand, RobotState
 from robots.digit import constants as c
 
 
@@ -28,7 +28,7 @@ class SimConfig:
 
     timestep_s: float = 0.001
     """Physics step [s]; the PD law runs at this rate."""
-    control_dt_s: float = 0.005
+    control_dt_s: float = CONTROL_PERIOD_S
     """Control period [s]: one `step` call."""
     kp: np.ndarray = field(default_factory=lambda: c.KP_DEFAULT.copy())
     """(12,) joint stiffness [N m / rad]."""

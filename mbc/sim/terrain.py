@@ -23,7 +23,7 @@ import mujoco
 import numpy as np
 
 from mbc.errors import ConfigError
-from mbc.robot import GROUND_CONAFFINITY, GROUND_CONTYPE
+from mbc.robot import CONTACT_FRICTION, GROUND_CONAFFINITY, GROUND_CONTYPE
 
 TERRAIN_GROUP = 3
 START_CLEARANCE_M = 0.8
@@ -165,7 +165,7 @@ def _ground(geom) -> None:
     geom.contype, geom.conaffinity = GROUND_CONTYPE, GROUND_CONAFFINITY
     geom.group = TERRAIN_GROUP
     geom.rgba = _RGBA
-    geom.friction = (1.0, 0.02, 0.001)
+    geom.friction = CONTACT_FRICTION
 
 
 def _add_profile(spec: mujoco.MjSpec, points: list[tuple[float, float]]) -> None:
