@@ -30,7 +30,7 @@ from mbc.fuzz import random_robot_state
 from mbc.rollout import Push, run_episode
 from mbc.sim import DigitSim
 from mbc.types import Command, RobotState
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
 Suite = Literal["flat", "push", "terrain", "speed", "corrupt", "takeover"]
 
@@ -54,7 +54,7 @@ class Args:
 def perturbed_start(sim: DigitSim, seed: int) -> RobotState:
     rng = np.random.default_rng(seed)
     state = sim.reset(seed=seed)
-    state.q = state.q + rng.uniform(-0.02, 0.02, c.NUM_JOINTS)
+    state.q = state.q + rng.uniform(-0.02, 0.02, digit.NUM_JOINTS)
     state.base_linvel = np.r_[rng.uniform(-0.05, 0.05, 2), 0.0]
     return state
 

@@ -16,16 +16,16 @@ from __future__ import annotations
 import numpy as np
 
 from mbc.types import JointCommand, RobotState
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
-ACTION_DIM = 2 * c.NUM_JOINTS
+ACTION_DIM = 2 * digit.NUM_JOINTS
 
 
 class ActionSpace:
     """Maps normalized actions to `JointCommand`s and back, given the state they act from."""
 
-    def __init__(self, kp: np.ndarray = c.KP_DEFAULT, kd: np.ndarray = c.KD_DEFAULT,
-                 torque_scale: np.ndarray = c.TORQUE_LIMIT_NM) -> None:
+    def __init__(self, kp: np.ndarray = digit.KP_DEFAULT, kd: np.ndarray = digit.KD_DEFAULT,
+                 torque_scale: np.ndarray = digit.TORQUE_LIMIT_NM) -> None:
         self.kp, self.kd = np.asarray(kp, float), np.asarray(kd, float)
         self.torque_scale = np.asarray(torque_scale, float)
         self._q_per_unit = self.torque_scale / self.kp  # rad per action unit
@@ -34,8 +34,8 @@ class ActionSpace:
     def to_command(self, action: np.ndarray, state: RobotState) -> JointCommand:
         """q_des = q + a[:12] tau_max / Kp, qd_des = qd + a[12:] tau_max / Kd."""
         action = np.asarray(action, float)
-        return JointCommand(q_des=state.q + action[:c.NUM_JOINTS] * self._q_per_unit,
-                            qd_des=state.qd + action[c.NUM_JOINTS:] * self._qd_per_unit)
+        return JointCommand(q_des=state.q + action[:digit.NUM_JOINTS] * self._q_per_unit,
+                            qd_des=state.qd + action[digit.NUM_JOINTS:] * self._qd_per_unit)
 
     def from_command(self, command: JointCommand, state: RobotState) -> np.ndarray:
         """(24,) the action of a PD command (its feed-forward torque folded into the position term)."""

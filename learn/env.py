@@ -30,7 +30,7 @@ from mbc.geometry import rotate_inverse, yaw_of_quaternion
 from mbc.sim import DigitSim
 from mbc.timing import LEFT, RIGHT
 from mbc.types import RobotState
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
 MONITOR_NAMES = ("com_vertical_velocity_mps", "com_height_error_m", "stance_slip_speed_mps")
 """The model-assumption monitors each tick reports (ALIP: z' = 0, z = z_bar; a stance foot that does not slip)."""
@@ -93,9 +93,9 @@ class WalkEnv:
         self.expert = Expert(self.action_space) if with_expert else None
         self.builder = ObservationBuilder(config.history_length)
         self.rng = np.random.default_rng(index)
-        self._feet = [self.sim.model.body(f).id for f in c.FOOT_LINKS]
-        self._foot_boxes = [self.sim.model.geom(f"{f}_box").id for f in c.FOOT_LINKS]
-        self._pelvis = self.sim.model.body(c.BASE_LINK).id
+        self._feet = [self.sim.model.body(f).id for f in digit.FOOT_LINKS]
+        self._foot_boxes = [self.sim.model.geom(f"{f}_box").id for f in digit.FOOT_LINKS]
+        self._pelvis = self.sim.model.body(digit.BASE_LINK).id
         self._velocity = np.zeros(6)
         self.state: RobotState | None = None
         self.command = np.zeros(3)
@@ -114,7 +114,7 @@ class WalkEnv:
         cfg = self.config
         self.rng = rng = np.random.default_rng(seed)
         state = self.sim.reset()
-        state.q = state.q + rng.uniform(-cfg.init_joint_noise_rad, cfg.init_joint_noise_rad, c.NUM_JOINTS)
+        state.q = state.q + rng.uniform(-cfg.init_joint_noise_rad, cfg.init_joint_noise_rad, digit.NUM_JOINTS)
         state.base_linvel = np.r_[rng.uniform(-cfg.init_velocity_noise_mps, cfg.init_velocity_noise_mps, 2), 0.0]
         self.sim.set_state(state)
         self.state = self.sim.state()
@@ -177,8 +177,8 @@ class WalkEnv:
         model, data = self.sim.model, self.sim.data
         mujoco.mj_subtreeVel(model, data)
         stance = self.builder.clock.stance
-        sole_z = data.geom_xpos[self._foot_boxes[stance], 2] - 0.5 * c.FOOT_SIZE_M[2]
+        sole_z = data.geom_xpos[self._foot_boxes[stance], 2] - 0.5 * digit.FOOT_SIZE_M[2]
         mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, self._feet[stance], self._velocity, 0)
         self.monitors = np.array([data.subtree_linvel[self._pelvis, 2],
-                                  data.subtree_com[self._pelvis, 2] - sole_z - AlipControllerConfig.com_height_m,
+                                  data.subtree_com[self._pelvis, 2] - sole_z - AlipControllerConfig.nominal_com_height_m,
                                   math.hypot(self._velocity[3], self._velocity[4])])

@@ -18,8 +18,8 @@ class AlipState:
     """(2,) horizontal CoM position relative to the contact point: sagittal, lateral [m]."""
     L: np.ndarray
     """(2,) pendulum angular momenta (m z x' for z' = 0): sagittal L_y, lateral -L_x [kg m^2/s]."""
-    com_height: float
-    """CoM height above the contact point [m]."""
+    com_height_above_contact_m: float
+    """Measured CoM height above the contact point [m]."""
     com_velocity: np.ndarray
     """(3,) CoM velocity in the heading frame [m/s]."""
 
@@ -35,5 +35,5 @@ def alip_state(robot: PinRobot, contact_point_world: np.ndarray, yaw: float) -> 
     return AlipState(
         x=np.array([cos_yaw * rx + sin_yaw * ry, -sin_yaw * rx + cos_yaw * ry]),
         L=np.array([-sin_yaw * Lx + cos_yaw * Ly, -(cos_yaw * Lx + sin_yaw * Ly)]),
-        com_height=rz,
+        com_height_above_contact_m=rz,
         com_velocity=np.array([cos_yaw * vx + sin_yaw * vy, -sin_yaw * vx + cos_yaw * vy, vz]))

@@ -45,6 +45,11 @@ class AssumptionReport:
     NAMES = ("com_height_error_m", "com_vertical_velocity_mps", "com_vertical_acceleration_mps2",
              "stance_slip_speed_mps", "centroidal_angular_momentum", "qp_solved", "torque_saturation")
 
+    @classmethod
+    def unavailable(cls) -> AssumptionReport:
+        """The report of a tick without a solution: monitors NaN, QP not solved."""
+        return cls(np.nan, np.nan, np.nan, np.nan, np.nan, qp_solved=False, torque_saturation=0.0)
+
     def as_array(self) -> np.ndarray:
         """(7,) the fields in `NAMES` order, as floats."""
         return np.array([float(v) for v in asdict(self).values()])

@@ -33,16 +33,20 @@ from mbc.alip_mpc import AlipMpc, AlipMpcConfig, StepReach
 from mbc.alip_state import AlipState, alip_state
 from mbc.assumptions import AssumptionReport, saturation
 from mbc.errors import ConfigError
-from mbc.geometry import wrap_angle, yaw_of_quaternion, yaw_of_rotation
-from mbc.ik import IkConfig, IkTargets, WholeBodyIK
-from mbc.passivity import PassivityConfig, PassivityQp
+from mbc.geometry import rotate_z, wrap_angle, yaw_of_quaternion, yaw_of_rotation
+from mbc.ik import IkConfig, IkResult, IkTargets, WholeBodyIK
+from mbc.passivity import PassivityConfig, PassivityQp, QpResult
+from mbc.pd import position_target_for_torque
 from mbc.pin_robot import PinRobot
 from mbc.swing import SwingConfig, estimate_phase, swing_reference
 from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig
 from mbc.types import CONTROL_PERIOD_S, Command, CommandLimits, JointCommand, RobotState
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
-_JOINT_SPEED_BOUND = (10 * c.SPEED_LIMIT_RADPS).tolist()
+SOLVER_ERRORS = (RuntimeError, ArithmeticError, np.linalg.LinAlgError, ValueError)
+"""What the IK (placo: its C++ QPError arrives as RuntimeError), the QP (proxsuite) and linear algebra raise
+when they fail: a fallback, not a crash. Anything else is a bug and is raised."""
+_JOINT_SPEED_BOUND = (10 * digit.SPEED_LIMIT_RADPS).tolist()
 """Joint speeds beyond 10x the motors' limits mark a state as implausible [rad/s]."""
 
 
@@ -50,8 +54,8 @@ _JOINT_SPEED_BOUND = (10 * c.SPEED_LIMIT_RADPS).tolist()
 class AlipControllerConfig:
     """Parameters of the ALIP walking controller."""
 
-    com_height_m: float = 0.95
-    """ALIP z_bar: desired CoM height above the stance sole [m]."""
+    nominal_com_height_m: float = 0.95
+    """ALIP z_bar: the CoM height above the stance sole that the model assumes and the IK holds [m]."""
     step_width_m: float = 0.26
     """Lateral distance between the feet in the periodic gait [m]."""
     max_step_length_m: float = 0.5
@@ -76,9 +80,9 @@ class AlipControllerConfig:
     """One-step-ahead law (default) or the multi-step ALIP MPC with step timing."""
     output: Literal["pd", "torque"] = "pd"
     """Action space: PD targets reproducing the QP torque (the policy's space) or raw torque as tau_ff."""
-    kp: np.ndarray = field(default_factory=lambda: c.KP_DEFAULT.copy())
+    kp: np.ndarray = field(default_factory=lambda: digit.KP_DEFAULT.copy())
     """(12,) joint stiffness of the simulator, for the action-space conversion."""
-    kd: np.ndarray = field(default_factory=lambda: c.KD_DEFAULT.copy())
+    kd: np.ndarray = field(default_factory=lambda: digit.KD_DEFAULT.copy())
     limits: CommandLimits = field(default_factory=CommandLimits)
     timing: TimingConfig = field(default_factory=TimingConfig)
     swing: SwingConfig = field(default_factory=SwingConfig)
@@ -87,8 +91,8 @@ class AlipControllerConfig:
     mpc: AlipMpcConfig = field(default_factory=AlipMpcConfig)
 
     def __post_init__(self) -> None:
-        if not 0.5 < self.com_height_m < 1.2:
-            raise ConfigError(f"com_height_m must be in (0.5, 1.2), got {self.com_height_m}")
+        if not 0.5 < self.nominal_com_height_m < 1.2:
+            raise ConfigError(f"nominal_com_height_m must be in (0.5, 1.2), got {self.nominal_com_height_m}")
         if not 0 < self.min_step_width_m <= self.step_width_m <= self.max_step_width_m:
             raise ConfigError("need 0 < min_step_width_m <= step_width_m <= max_step_width_m")
         if self.foot_placement not in ("one_step", "mpc"):
@@ -128,6 +132,17 @@ class ControllerDiagnostics:
     tick_time_s: dict[str, float]
     """Wall time of the parts: 'alip', 'ik', 'qp', 'total' [s]."""
 
+    @classmethod
+    def of_fallback(cls, stance: int, phase: float, command: tuple[float, float, float], clipped: bool,
+                    qp_iterations: int, fallback_count: int, total_s: float) -> ControllerDiagnostics:
+        """The record of a tick that fell back: no ALIP state, targets or torque (NaN, zero torque)."""
+        nan3 = np.full(3, np.nan)
+        return cls(assumptions=AssumptionReport.unavailable(), stance=stance, phase=phase, touchdown=False, alip=None,
+                   foot_target_world=nan3, stance_sole_world=nan3, swing_reference_world=nan3, com_world=nan3,
+                   command_used=np.array(command), command_clipped=clipped, ik_converged=False, qp_iterations=qp_iterations,
+                   fallback=True, fallback_count=fallback_count, tau=np.zeros(digit.NUM_JOINTS),
+                   tick_time_s={"alip": 0.0, "ik": 0.0, "qp": 0.0, "total": total_s})
+
 
 class AlipController:
     """ALIP walking controller for Digit; implements the `Controller` protocol at 200 Hz."""
@@ -137,7 +152,7 @@ class AlipController:
     def __init__(self, config: AlipControllerConfig | None = None) -> None:
         self.config = cfg = config or AlipControllerConfig()
         self.robot = PinRobot()
-        self.alip = AlipModel(self.robot.mass, cfg.com_height_m)
+        self.alip = AlipModel(self.robot.mass, cfg.nominal_com_height_m)
         self.clock = GaitClock(cfg.timing)
         self.ik = WholeBodyIK(cfg.ik, dt=self.dt)
         self.qp = PassivityQp(cfg.qp)
@@ -145,11 +160,11 @@ class AlipController:
         self.mpc = AlipMpc(self.alip, cfg.mpc, reach, cfg.timing) if cfg.foot_placement == "mpc" else None
         self._kp, self._kd = np.asarray(cfg.kp, float).tolist(), np.asarray(cfg.kd, float).tolist()
         self._gravity_z = float(self.robot.model.gravity.linear[2])  # -9.81 m/s^2
-        self._zero_joint_acceleration = np.zeros(c.NUM_JOINTS)  # qdd_des: the IK gives positions and velocities
+        self._zero_joint_acceleration = np.zeros(digit.NUM_JOINTS)  # qdd_des: the IK gives positions and velocities
         T = cfg.timing.step_duration_s  # the gait's step-end targets are linear in the command:
         self._end_velocity_per_mean = float(self.alip.end_velocity_for_mean(1.0, T))
         self._lateral_gait_momentum = float(self.alip.lateral_end_momentum(-1, cfg.step_width_m, T))
-        self._last_q_des = c.Q_STAND.copy()
+        self._last_q_des = digit.Q_STAND.copy()
         self.fallback_count = 0
         self.last_diagnostics: ControllerDiagnostics | None = None
         self._started = False
@@ -194,7 +209,7 @@ class AlipController:
                 phase = estimate_phase(height, self.robot.sole_velocity(swing)[2], self.config.swing)
         self.clock.reset(state.time, stance, phase)
         q = np.asarray(state.q, dtype=float)
-        self._last_q_des = np.where(np.isfinite(q), q, c.Q_STAND)
+        self._last_q_des = np.where(np.isfinite(q), q, digit.Q_STAND)
         self.fallback_count = 0
         self._started = True
 
@@ -207,83 +222,102 @@ class AlipController:
         start = time.perf_counter()
         command_used, clipped = self.config.limits.clip(command)
         if not self._plausible_state(state):
-            return self._fallback(state, command_used, clipped, start, reason="non-finite or implausible state")
+            return self._fallback(command_used, clipped, start, reason="non-finite or implausible state")
         try:
             return self._tick(state, command_used, clipped, start)
-        except Exception as exc:  # solver exceptions (placo QPError, linear algebra, ...) -> safe command
-            return self._fallback(state, command_used, clipped, start, reason=f"{type(exc).__name__}: {exc}")
+        except SOLVER_ERRORS as exc:  # what placo, proxsuite and linear algebra raise; other errors are bugs
+            return self._fallback(command_used, clipped, start, reason=f"{type(exc).__name__}: {exc}")
 
     # --- the tick -------------------------------------------------------------------------------------
 
     def _tick(self, state: RobotState, command: tuple[float, float, float], clipped: bool, start: float) -> JointCommand:
-        cfg, robot, clock = self.config, self.robot, self.clock
+        """The seven steps of the module docstring, one named method each."""
+        robot, clock = self.robot, self.clock
         robot.update(state)
-        touchdown = clock.update(state.time, state.contact)
-        stance, swing = clock.stance, clock.swing
+        touchdown = clock.update(state.time, state.contact)  # 1. gait clock
+        stance = clock.stance
         stance_sole, stance_rotation = robot.sole_pose(stance)
-        swing_sole, swing_rotation = robot.sole_pose(swing)
         heading = yaw_of_quaternion(state.base_quat)
-        alip = alip_state(robot, stance_sole, heading)
-        step_x, step_y = self._foot_step(alip, command, stance)
-        cos_heading, sin_heading = math.cos(heading), math.sin(heading)
-        offset_x = cos_heading * step_x - sin_heading * step_y  # heading frame -> world
-        offset_y = sin_heading * step_x + cos_heading * step_y
+        alip = alip_state(robot, stance_sole, heading)  # 2. ALIP state about the stance sole
         ground_normal = self._ground_normal(stance_rotation)
-        nx, ny, nz = ground_normal.tolist()
-        landing_height = -(nx * offset_x + ny * offset_y) / nz  # on the stance foot's plane
-        sole_x, sole_y, sole_z = stance_sole.tolist()
-        target = np.array([sole_x + offset_x, sole_y + offset_y, sole_z + landing_height])
-        phase = clock.phase
-        phase_step = self.dt / clock.step_duration_s
-        swing_position, swing_velocity = swing_reference(swing_sole, target, phase, phase_step,
-                                                         clock.step_duration_s, cfg.swing)
-        stance_yaw = yaw_of_rotation(stance_rotation)
-        swing_yaw_now = yaw_of_rotation(swing_rotation)
-        turn = min(max(command[2] * cfg.timing.step_duration_s, -cfg.max_turn_per_step_rad), cfg.max_turn_per_step_rad)
-        swing_yaw = stance_yaw + turn  # the landing yaw: the light foot turns early in the swing
-        targets = IkTargets(
-            stance=stance, swing_position=swing_position, swing_velocity=swing_velocity, swing_yaw=swing_yaw,
-            ground_normal=ground_normal,
-            pelvis_yaw=stance_yaw + 0.5 * wrap_angle(swing_yaw_now - stance_yaw), com_height=stance_sole[2] + cfg.com_height_m,
-            pelvis_xy=state.base_pos[:2], pelvis_xy_velocity=state.base_linvel[:2])
+        landing = self._landing_point(alip, command, stance, stance_sole, ground_normal, heading)  # 3. foot placement
+        targets = self._ik_targets(state, command, landing, stance_sole, stance_rotation, ground_normal)  # 4. swing
         t_alip = time.perf_counter()
-        ik = self.ik.solve(robot.q, targets)
+        ik = self.ik.solve(robot.q, targets)  # 5. whole-body IK
         t_ik = time.perf_counter()
         if not all(map(math.isfinite, ik.q_des.tolist() + ik.qd_des.tolist())):
-            return self._fallback(state, command, clipped, start, reason="IK returned non-finite targets")
-        swing_loaded = bool(state.contact[swing]) and phase < 0.1  # double support just after touchdown
-        contact = (True, swing_loaded) if stance == LEFT else (swing_loaded, True)
-        problem, sliding = self.qp.build(robot, contact, ik.q_des, ik.qd_des, self._zero_joint_acceleration)
-        result = self.qp.solve(robot, problem, sliding)
+            return self._fallback(command, clipped, start, reason="IK returned non-finite targets")
+        result = self._inverse_dynamics(state, ik)  # 6. passivity QP
         t_qp = time.perf_counter()
         if not result.solved:
-            return self._fallback(state, command, clipped, start, reason="QP not solved", qp_iterations=result.iterations)
-        tau = result.tau
-        if cfg.output == "pd":  # q_cmd = q + (tau - kd (qd_cmd - qd)) / kp, in scalars (12 values)
-            qd_cmd = ik.qd_des
-            q_cmd = [q + (torque - kd * (qd_des - qd)) / kp for q, torque, qd_des, qd, kp, kd
-                     in zip(state.q.tolist(), tau.tolist(), qd_cmd.tolist(), state.qd.tolist(), self._kp, self._kd)]
-            joint_command = JointCommand(q_des=np.array(q_cmd), qd_des=qd_cmd)
-        else:
-            joint_command = JointCommand(q_des=state.q.copy(), qd_des=state.qd.copy(), tau_ff=tau)
+            return self._fallback(command, clipped, start, reason="QP not solved", qp_iterations=result.iterations)
+        joint_command = self._joint_command(state, result.tau, ik.qd_des)  # 7. action-space conversion
         self._last_q_des = ik.q_des
+        report = self._assumption_report(alip, result)
+        self.last_diagnostics = ControllerDiagnostics(
+            assumptions=report, stance=stance, phase=clock.phase, touchdown=touchdown, alip=alip, foot_target_world=landing,
+            stance_sole_world=stance_sole, swing_reference_world=targets.swing_position, com_world=robot.com,
+            command_used=np.array(command), command_clipped=clipped, ik_converged=ik.converged, qp_iterations=result.iterations,
+            fallback=False, fallback_count=self.fallback_count, tau=result.tau,
+            tick_time_s={"alip": t_alip - start, "ik": t_ik - t_alip, "qp": t_qp - t_ik, "total": time.perf_counter() - start})
+        return joint_command
+
+    def _landing_point(self, alip: AlipState, command: tuple[float, float, float], stance: int, stance_sole: np.ndarray,
+                       ground_normal: np.ndarray, heading: float) -> np.ndarray:
+        """(3,) world landing point of the swing foot: the step (heading frame) from the stance sole,
+        on the plane of the ground under the stance foot."""
+        step_x, step_y = self._foot_step(alip, command, stance)
+        offset_x, offset_y = rotate_z(step_x, step_y, heading)
+        nx, ny, nz = ground_normal.tolist()
+        sole_x, sole_y, sole_z = stance_sole.tolist()
+        return np.array([sole_x + offset_x, sole_y + offset_y, sole_z - (nx * offset_x + ny * offset_y) / nz])
+
+    def _ik_targets(self, state: RobotState, command: tuple[float, float, float], landing: np.ndarray,
+                    stance_sole: np.ndarray, stance_rotation: np.ndarray, ground_normal: np.ndarray) -> IkTargets:
+        """The swing sole's reference one tick ahead and the IK's other targets."""
+        cfg, clock = self.config, self.clock
+        swing_sole, swing_rotation = self.robot.sole_pose(clock.swing)
+        swing_position, swing_velocity = swing_reference(swing_sole, landing, clock.phase, self.dt / clock.step_duration_s,
+                                                         clock.step_duration_s, cfg.swing)
+        stance_yaw, swing_yaw_now = yaw_of_rotation(stance_rotation), yaw_of_rotation(swing_rotation)
+        turn = min(max(command[2] * cfg.timing.step_duration_s, -cfg.max_turn_per_step_rad), cfg.max_turn_per_step_rad)
+        return IkTargets(
+            stance=clock.stance, swing_position=swing_position, swing_velocity=swing_velocity,
+            swing_yaw=stance_yaw + turn,  # the landing yaw: the light foot turns early in the swing
+            ground_normal=ground_normal, pelvis_yaw=stance_yaw + 0.5 * wrap_angle(swing_yaw_now - stance_yaw),
+            com_z_world_m=stance_sole[2] + cfg.nominal_com_height_m,
+            pelvis_xy=state.base_pos[:2], pelvis_xy_velocity=state.base_linvel[:2])
+
+    def _inverse_dynamics(self, state: RobotState, ik: IkResult) -> QpResult:
+        """The passivity QP's joint torques tracking the IK; the swing foot counts as a contact in the
+        double support just after touchdown."""
+        clock = self.clock
+        swing_loaded = bool(state.contact[clock.swing]) and clock.phase < 0.1
+        contact = (True, swing_loaded) if clock.stance == LEFT else (swing_loaded, True)
+        problem, sliding = self.qp.build(self.robot, contact, ik.q_des, ik.qd_des, self._zero_joint_acceleration)
+        return self.qp.solve(self.robot, problem, sliding)
+
+    def _joint_command(self, state: RobotState, tau: np.ndarray, qd_des: np.ndarray) -> JointCommand:
+        """PD mode: the position targets whose PD torque is `tau` at this state, with the IK's velocity
+        targets; torque mode: `tau` as feed-forward over a PD that holds the state."""
+        if self.config.output == "torque":
+            return JointCommand(q_des=state.q.copy(), qd_des=state.qd.copy(), tau_ff=tau)
+        q_des = position_target_for_torque(tau.tolist(), qd_des.tolist(), state.q.tolist(), state.qd.tolist(),
+                                           self._kp, self._kd)
+        return JointCommand(q_des=np.array(q_des), qd_des=qd_des)
+
+    def _assumption_report(self, alip: AlipState, result: QpResult) -> AssumptionReport:
+        """How far the robot is from the ALIP's assumptions this tick, and the QP's health."""
+        robot = self.robot
         # Newton for the whole body (the QP satisfies the floating-base rows): m c'' = sum f + m g
         com_vertical_acceleration = result.vertical_force() / robot.mass + self._gravity_z
-        report = AssumptionReport(
-            com_height_error_m=float(alip.com_height - cfg.com_height_m),
+        return AssumptionReport(
+            com_height_error_m=float(alip.com_height_above_contact_m - self.config.nominal_com_height_m),
             com_vertical_velocity_mps=float(alip.com_velocity[2]),
             com_vertical_acceleration_mps2=float(com_vertical_acceleration),
-            stance_slip_speed_mps=robot.sole_horizontal_speed(stance),
+            stance_slip_speed_mps=robot.sole_horizontal_speed(self.clock.stance),
             centroidal_angular_momentum=math.hypot(*robot.centroidal_angular_momentum.tolist()),
-            qp_solved=True, torque_saturation=saturation(tau, c.TORQUE_LIMIT_NM))
-        end = time.perf_counter()
-        self.last_diagnostics = ControllerDiagnostics(
-            assumptions=report, stance=stance, phase=phase, touchdown=touchdown, alip=alip, foot_target_world=target,
-            stance_sole_world=stance_sole, swing_reference_world=swing_position, com_world=robot.com,
-            command_used=np.array(command), command_clipped=clipped, ik_converged=ik.converged, qp_iterations=result.iterations,
-            fallback=False, fallback_count=self.fallback_count, tau=tau,
-            tick_time_s={"alip": t_alip - start, "ik": t_ik - t_alip, "qp": t_qp - t_ik, "total": end - start})
-        return joint_command
+            qp_solved=True, torque_saturation=saturation(result.tau, digit.TORQUE_LIMIT_NM))
 
     def _ground_normal(self, stance_sole_rotation: np.ndarray) -> np.ndarray:
         """The ground's normal under the stance foot, which lies flat on it: the sole's z axis.
@@ -300,25 +334,32 @@ class AlipController:
         return normal
 
     def _foot_step(self, alip: AlipState, command: tuple[float, float, float], stance: int) -> tuple[float, float]:
-        """Next foot position relative to the stance sole (heading frame: x, y) [m]; retimes the touchdown
-        as the MPC plans it, or, with the one-step law, sooner when the step is beyond reach."""
-        cfg, model, clock = self.config, self.alip, self.clock
-        T = cfg.timing.step_duration_s
-        next_stance_sign = 1 if stance == RIGHT else -1  # the swing foot becomes the stance foot
-        Lx_des, Ly_des = self._gait_end_momenta(command, next_stance_sign)
+        """Next foot position relative to the stance sole (heading frame: x, y) [m], by the MPC or the
+        one-step law, within reach."""
         swing_side = 1.0 if stance == RIGHT else -1.0  # the swing foot lands to the left (+1) or right (-1)
+        L_des = self._gait_end_momenta(command, swing_side)  # the swing foot becomes the stance foot (+1 left)
         if self.mpc is not None:
-            signs = next_stance_sign * (-1.0) ** np.arange(self.mpc.config.horizon_steps)
-            sequence = np.c_[np.full(len(signs), Lx_des), self._gait_end_momenta(command, signs)[1]]
-            solution = self.mpc.solve(alip.x, alip.L, clock.time_in_step_s, -int(swing_side), sequence)
-            if solution.time_left_s > 0.0:
-                clock.retime(solution.time_left_s)
-            step_x, step_y = solution.steps_m[0].tolist()
-            return self._clip_step(step_x, step_y, swing_side)
-        (x, y), (Lx, Ly) = alip.x.tolist(), alip.L.tolist()
+            return self._mpc_step(alip, command, swing_side, L_des[0])
+        return self._one_step_law_step(alip, swing_side, L_des)
+
+    def _mpc_step(self, alip: AlipState, command: tuple[float, float, float], swing_side: float,
+                  Lx_des: float) -> tuple[float, float]:
+        """The MPC's first step, within reach; the touchdown retimed as the MPC plans it."""
+        signs = swing_side * (-1.0) ** np.arange(self.mpc.config.horizon_steps)  # stance sides of the planned steps
+        sequence = np.c_[np.full(len(signs), Lx_des), self._gait_end_momenta(command, signs)[1]]
+        solution = self.mpc.solve(alip.x, alip.L, self.clock.time_in_step_s, -int(swing_side), sequence)
+        if solution.time_left_s > 0.0:
+            self.clock.retime(solution.time_left_s)
+        step_x, step_y = solution.steps_m[0].tolist()
+        return self._clip_step(step_x, step_y, swing_side)
+
+    def _one_step_law_step(self, alip: AlipState, swing_side: float, L_des: tuple[float, float]) -> tuple[float, float]:
+        """The one-step-ahead law's step, within reach; with step-timing adaptation, a step beyond reach
+        (after a push) is taken sooner, when the law's step fits (`AlipModel.time_left_for_step`)."""
+        cfg, clock = self.config, self.clock
+        (x, y), (Lx, Ly), (Lx_des, Ly_des) = alip.x.tolist(), alip.L.tolist(), L_des
         time_left = clock.time_to_touchdown_s
-        step_x = model.one_step_placement(x, Lx, time_left, Lx_des, T)
-        step_y = model.one_step_placement(y, Ly, time_left, Ly_des, T)
+        step_x, step_y = self._law_step(x, y, Lx, Ly, Lx_des, Ly_des, time_left)
         clipped_x, clipped_y = self._clip_step(step_x, step_y, swing_side)
         beyond_reach_x, beyond_reach_y = clipped_x != step_x, swing_side * step_y > cfg.max_step_width_m
         earliest = (1.0 - clock.phase) * cfg.timing.min_step_duration_s
@@ -332,9 +373,13 @@ class AlipController:
         if sooner >= time_left:
             return clipped_x, clipped_y
         clock.retime(sooner)
-        time_left = clock.time_to_touchdown_s
-        return self._clip_step(model.one_step_placement(x, Lx, time_left, Lx_des, T),
-                               model.one_step_placement(y, Ly, time_left, Ly_des, T), swing_side)
+        return self._clip_step(*self._law_step(x, y, Lx, Ly, Lx_des, Ly_des, clock.time_to_touchdown_s), swing_side)
+
+    def _law_step(self, x: float, y: float, Lx: float, Ly: float, Lx_des: float, Ly_des: float,
+                  time_left: float) -> tuple[float, float]:
+        """`AlipModel.one_step_placement` on both axes for a touchdown `time_left` from now."""
+        model, T = self.alip, self.config.timing.step_duration_s
+        return model.one_step_placement(x, Lx, time_left, Lx_des, T), model.one_step_placement(y, Ly, time_left, Ly_des, T)
 
     def _gait_end_momenta(self, command: tuple[float, float, float], stance_sign):
         """Step-end momenta (L_x, L_y) of the periodic gait for `command`, at the end of a stance with
@@ -374,18 +419,13 @@ class AlipController:
         return (math.hypot(*quat) > 1e-6 and math.hypot(*linvel) < 20.0 and math.hypot(*angvel) < 50.0
                 and all(map(operator.lt, map(abs, qd), _JOINT_SPEED_BOUND)))
 
-    def _fallback(self, state: RobotState, command: tuple[float, float, float], clipped: bool, start: float, reason: str,
+    def _fallback(self, command: tuple[float, float, float], clipped: bool, start: float, reason: str,
                   qp_iterations: int = 0) -> JointCommand:
         """Damped hold of the last good joint targets."""
         self.fallback_count += 1
         if self.fallback_count == 1:
             warnings.warn(f"AlipController fell back to a damped hold ({reason})", RuntimeWarning, stacklevel=3)
-        report = AssumptionReport(np.nan, np.nan, np.nan, np.nan, np.nan, qp_solved=False, torque_saturation=0.0)
-        self.last_diagnostics = ControllerDiagnostics(
-            assumptions=report, stance=self.clock.stance, phase=self.clock.phase, touchdown=False, alip=None,
-            foot_target_world=np.full(3, np.nan), stance_sole_world=np.full(3, np.nan),
-            swing_reference_world=np.full(3, np.nan), com_world=np.full(3, np.nan), command_used=np.array(command),
-            command_clipped=clipped, ik_converged=False,
-            qp_iterations=qp_iterations, fallback=True, fallback_count=self.fallback_count, tau=np.zeros(c.NUM_JOINTS),
-            tick_time_s={"alip": 0.0, "ik": 0.0, "qp": 0.0, "total": time.perf_counter() - start})
+        self.last_diagnostics = ControllerDiagnostics.of_fallback(
+            self.clock.stance, self.clock.phase, command, clipped, qp_iterations, self.fallback_count,
+            time.perf_counter() - start)
         return JointCommand.hold(self._last_q_des)

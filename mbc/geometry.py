@@ -19,6 +19,12 @@ def rotate_inverse(quat_wxyz: tuple[float, float, float, float], vector: np.ndar
     return a - w * tx + y * tz - z * ty, b - w * ty + z * tx - x * tz, c - w * tz + x * ty - y * tx
 
 
+def rotate_z(x: float, y: float, yaw: float) -> tuple[float, float]:
+    """(x, y) rotated by `yaw` about z: numpy form `yaw_rotation(yaw)[:2, :2] @ [x, y]`."""
+    cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
+    return cos_yaw * x - sin_yaw * y, sin_yaw * x + cos_yaw * y
+
+
 def yaw_of_quaternion(quat_wxyz: np.ndarray) -> np.ndarray | float:
     """Yaw [rad] of orientation(s) given as w x y z quaternions, shape (4,) or (n, 4)."""
     quat = np.asarray(quat_wxyz, dtype=float)

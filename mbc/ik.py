@@ -24,7 +24,7 @@ from mbc.errors import ConfigError
 from mbc.geometry import yaw_rotation
 from mbc.robot import JointMap
 from mbc.types import CONTROL_PERIOD_S
-from robots.digit import constants as c
+from robots.digit import constants as digit
 from robots.digit.urdf import URDF_PATH
 
 
@@ -68,7 +68,7 @@ class IkTargets:
     ground_normal: np.ndarray
     """(3,) normal of the ground plane the swing foot lands on (its sole is laid on that plane)."""
     pelvis_yaw: float
-    com_height: float
+    com_z_world_m: float
     """CoM z (world) [m]."""
     pelvis_xy: np.ndarray
     """(2,) pelvis horizontal position [m]."""
@@ -111,17 +111,17 @@ class WholeBodyIK:
         self.solver.mask_fbase(False)
         self.solver.enable_joint_limits(True)
         self.solver.dt = dt
-        self._sole_tasks = [self.solver.add_frame_task(name, np.eye(4)) for name in c.SOLE_FRAMES]
-        self._pelvis_orientation = self.solver.add_orientation_task(c.BASE_LINK, np.eye(3))
+        self._sole_tasks = [self.solver.add_frame_task(name, np.eye(4)) for name in digit.SOLE_FRAMES]
+        self._pelvis_orientation = self.solver.add_orientation_task(digit.BASE_LINK, np.eye(3))
         self._pelvis_orientation.configure("pelvis_orientation", "soft", cfg.pelvis_orientation_weight)
-        self._pelvis_xy = self.solver.add_position_task(c.BASE_LINK, np.zeros(3))
+        self._pelvis_xy = self.solver.add_position_task(digit.BASE_LINK, np.zeros(3))
         self._pelvis_xy.mask.set_axises("xy")
         self._pelvis_xy.configure("pelvis_xy", "soft", cfg.pelvis_xy_weight)
         self._com = self.solver.add_com_task(np.zeros(3))
         self._com.mask.set_axises("z")
         self._com.configure("com_height", "soft", cfg.com_height_weight)
         posture = self.solver.add_joints_task()
-        posture.set_joints(dict(zip(c.JOINT_NAMES, c.Q_STAND.tolist())))
+        posture.set_joints(dict(zip(digit.JOINT_NAMES, digit.Q_STAND.tolist())))
         posture.configure("posture", "soft", cfg.posture_weight)
         self.solver.add_regularization_task(cfg.regularization)
         self._stance = -1
@@ -137,7 +137,7 @@ class WholeBodyIK:
         """The targets that do not move within the tick: stance foot, pelvis orientation, CoM height."""
         self._sole_tasks[targets.stance].T_world_frame = stance_pose
         self._pelvis_orientation.R_world_frame = yaw_rotation(targets.pelvis_yaw)
-        self._com.target_world = np.array([0.0, 0.0, targets.com_height])
+        self._com.target_world = np.array([0.0, 0.0, targets.com_z_world_m])
 
     def _set_moving_targets(self, targets: IkTargets, ahead_s: float) -> None:
         """Swing sole pose and pelvis position, `ahead_s` along their velocities."""
@@ -152,16 +152,16 @@ class WholeBodyIK:
         robot.state.q = q_measured  # copied by placo
         robot.update_kinematics()
         self._configure_stance(targets.stance)
-        stance_name = c.SOLE_FRAMES[targets.stance]
+        stance_name = digit.SOLE_FRAMES[targets.stance]
         self._set_fixed_targets(targets, robot.get_T_world_frame(stance_name))
         self._set_moving_targets(targets, 0.0)
         for _ in range(self.config.iterations):
             self.solver.solve(True)
             robot.update_kinematics()
         q_now = robot.state.q.copy()  # the getter is a view on placo's state
-        swing_error = math.dist(robot.get_T_world_frame(c.SOLE_FRAMES[1 - targets.stance])[:3, 3].tolist(),
+        swing_error = math.dist(robot.get_T_world_frame(digit.SOLE_FRAMES[1 - targets.stance])[:3, 3].tolist(),
                                 targets.swing_position.tolist())
-        com_error = robot.com_world()[2].item() - targets.com_height
+        com_error = robot.com_world()[2].item() - targets.com_z_world_m
         self._set_moving_targets(targets, self.dt)
         self.solver.solve(True)
         q_ahead = robot.state.q

@@ -57,17 +57,17 @@ import proxsuite
 
 from mbc.errors import ConfigError
 from mbc.pin_robot import PinRobot
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
-NV = 6 + c.NUM_JOINTS
+NV = 6 + digit.NUM_JOINTS
 NUM_CORNERS = 4
 FORCES_PER_FOOT = 3 * NUM_CORNERS
 PYRAMID_ROWS = 4
 A_SLICE = slice(0, NV)
 """The generalized acceleration in the decision vector; the corner forces follow it."""
 _SOLVED = proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
-_TORQUE_LIMITS = c.TORQUE_LIMIT_NM.tolist()
-_NEGATIVE_TORQUE_LIMIT = -c.TORQUE_LIMIT_NM
+_TORQUE_LIMITS = digit.TORQUE_LIMIT_NM.tolist()
+_NEGATIVE_TORQUE_LIMIT = -digit.TORQUE_LIMIT_NM
 
 
 def num_variables(feet_in_contact: int) -> int:
@@ -75,7 +75,7 @@ def num_variables(feet_in_contact: int) -> int:
 
 
 def num_inequalities(feet_in_contact: int) -> int:
-    return PYRAMID_ROWS * NUM_CORNERS * feet_in_contact + c.NUM_JOINTS
+    return PYRAMID_ROWS * NUM_CORNERS * feet_in_contact + digit.NUM_JOINTS
 
 
 @dataclass(frozen=True)
@@ -107,8 +107,8 @@ class PassivityConfig:
     def __post_init__(self) -> None:
         if not self.friction > 0:
             raise ConfigError(f"friction must be positive, got {self.friction}")
-        if len(self.damping) != len(c.LEG_JOINTS):
-            raise ConfigError(f"damping needs {len(c.LEG_JOINTS)} values (one per leg joint), got {len(self.damping)}")
+        if len(self.damping) != len(digit.LEG_JOINTS):
+            raise ConfigError(f"damping needs {len(digit.LEG_JOINTS)} values (one per leg joint), got {len(self.damping)}")
 
 
 @dataclass
@@ -183,7 +183,7 @@ class QpResult:
 
 def sole_corners() -> np.ndarray:
     """(4, 3) sole corners in the sole frame [m]."""
-    half_x, half_y = c.FOOT_SIZE_M[0] / 2, c.FOOT_SIZE_M[1] / 2
+    half_x, half_y = digit.FOOT_SIZE_M[0] / 2, digit.FOOT_SIZE_M[1] / 2
     return np.array([[sx * half_x, sy * half_y, 0.0] for sx in (1, -1) for sy in (1, -1)])
 
 
@@ -233,7 +233,7 @@ class PassivityQp:
     def _template(self, feet: tuple[int, ...], joints_v: slice | np.ndarray) -> _Template:
         cfg = self.config
         n = num_variables(len(feet))
-        joint_weights = np.full(c.NUM_JOINTS, cfg.joint_weight)
+        joint_weights = np.full(digit.NUM_JOINTS, cfg.joint_weight)
         if len(feet) == 1:  # the single-support pivot: a nearly passive stance ankle
             joint_weights[feet[0] * 6 + 4: feet[0] * 6 + 6] *= cfg.stance_ankle_weight
         diagonal = np.r_[np.full(NV, cfg.base_weight), np.full(n - NV, cfg.force_weight)]
@@ -246,7 +246,7 @@ class PassivityQp:
         return _Template(H=np.diag(diagonal), pyramid=rows, pyramid_lower=np.full(len(rows), -np.inf),
                          pyramid_upper=np.zeros(len(rows)), joint_gradient=-joint_weights,  # C f <= 0
                          wrench_map=np.kron(np.eye(len(feet)), -corner_wrench_map(sole_corners())),
-                         residual_weights=np.r_[np.full(c.NUM_JOINTS, cfg.torque_weight),
+                         residual_weights=np.r_[np.full(digit.NUM_JOINTS, cfg.torque_weight),
                                                 np.full(6 * len(feet), cfg.contact_weight)])
 
     def _new_solver(self, feet_in_contact: int) -> proxsuite.proxqp.dense.QP:
@@ -310,7 +310,7 @@ class PassivityQp:
         problem = QpProblem(
             H=H, g=g, A=rows[:6], b=-h[:6], C=np.concatenate((template.pyramid, torque_map)),
             l=np.concatenate((template.pyramid_lower, _NEGATIVE_TORQUE_LIMIT - torque_offset)),
-            u=np.concatenate((template.pyramid_upper, c.TORQUE_LIMIT_NM - torque_offset)), feet=feet,
+            u=np.concatenate((template.pyramid_upper, digit.TORQUE_LIMIT_NM - torque_offset)), feet=feet,
             sole_rotations=tuple(rotations), torque_map=torque_map, torque_offset=torque_offset)
         return problem, sliding
 

@@ -9,7 +9,7 @@ import pinocchio as pin
 
 from mbc.robot import JointMap, load_pinocchio, pinocchio_configuration, pinocchio_velocity
 from mbc.types import RobotState
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
 
 class PinRobot:
@@ -20,7 +20,7 @@ class PinRobot:
         self.data = self.model.createData()
         self.joint_map = JointMap.for_pinocchio(self.model)
         self.mass = float(pin.computeTotalMass(self.model))
-        self.sole_ids = tuple(self.model.getFrameId(name) for name in c.SOLE_FRAMES)
+        self.sole_ids = tuple(self.model.getFrameId(name) for name in digit.SOLE_FRAMES)
         self.q = pin.neutral(self.model)
         self.v = np.zeros(self.model.nv)
         self._zero_acceleration = np.zeros(self.model.nv)

@@ -21,7 +21,7 @@ import pinocchio as pin
 
 from mbc.errors import ModelLoadError
 from mbc.geometry import rotate_inverse
-from robots.digit import constants as c
+from robots.digit import constants as digit
 from robots.digit.urdf import URDF_PATH
 
 # Collision bits: ground (1); upper body (collides with ground only); each lower leg collides with
@@ -50,7 +50,7 @@ def load_pinocchio(urdf_path: Path = URDF_PATH) -> pin.Model:
         raise ModelLoadError(f"pinocchio could not parse {path}: {exc}") from exc
     joint_map = JointMap.for_pinocchio(model)
     armature = np.zeros(model.nv)
-    armature[joint_map.v] = c.ARMATURE_KGM2
+    armature[joint_map.v] = digit.ARMATURE_KGM2
     model.armature = armature
     return model
 
@@ -70,29 +70,29 @@ def digit_mjspec(urdf_path: Path = URDF_PATH) -> mujoco.MjSpec:
     spec.compiler.fusestatic = False
     spec.option.timestep = 0.001
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    pelvis = spec.body(c.BASE_LINK)
+    pelvis = spec.body(digit.BASE_LINK)
     pelvis.add_freejoint(name="root")
     pelvis.add_geom(name="pelvis_box", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.1, 0.15, 0.2],
                     pos=[0, 0, 0.2], contype=UPPER_CONTYPE, conaffinity=UPPER_CONAFFINITY,
                     rgba=[0.25, 0.3, 0.4, 1])
     pelvis.add_site(name="imu", pos=[0, 0, 0])
-    for side, foot in zip(c.SIDES, c.FOOT_LINKS):
+    for side, foot in zip(digit.SIDES, digit.FOOT_LINKS):
         _add_leg_geoms(spec, side, foot)
-    for j, name in enumerate(c.JOINT_NAMES):
-        spec.joint(name).armature = c.ARMATURE_KGM2[j]
+    for j, name in enumerate(digit.JOINT_NAMES):
+        spec.joint(name).armature = digit.ARMATURE_KGM2[j]
         spec.add_actuator(
             name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
             gaintype=mujoco.mjtGain.mjGAIN_FIXED, biastype=mujoco.mjtBias.mjBIAS_AFFINE,
-            gainprm=[1.0] + [0.0] * 9, biasprm=[0.0, -c.KP_DEFAULT[j], -c.KD_DEFAULT[j]] + [0.0] * 7,
+            gainprm=[1.0] + [0.0] * 9, biasprm=[0.0, -digit.KP_DEFAULT[j], -digit.KD_DEFAULT[j]] + [0.0] * 7,
             forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
-            forcerange=[-c.TORQUE_LIMIT_NM[j], c.TORQUE_LIMIT_NM[j]],
+            forcerange=[-digit.TORQUE_LIMIT_NM[j], digit.TORQUE_LIMIT_NM[j]],
         )
     return spec
 
 
 def _add_leg_geoms(spec: mujoco.MjSpec, side: str, foot: str) -> None:
     """Name the foot box, give it contact settings and a touch sensor; add limb capsules."""
-    links = c.leg_links(side)
+    links = digit.leg_links(side)
     foot_body = spec.body(foot)
     box = foot_body.first_geom()
     box.name = f"{foot}_box"
@@ -137,17 +137,17 @@ class JointMap:
 
     @classmethod
     def for_pinocchio(cls, model: pin.Model) -> JointMap:
-        ids = [model.getJointId(name) for name in c.JOINT_NAMES]
+        ids = [model.getJointId(name) for name in digit.JOINT_NAMES]
         if any(i >= model.njoints for i in ids):
-            missing = [n for n, i in zip(c.JOINT_NAMES, ids) if i >= model.njoints]
+            missing = [n for n, i in zip(digit.JOINT_NAMES, ids) if i >= model.njoints]
             raise ModelLoadError(f"pinocchio model lacks joints {missing}")
         return cls(q=as_slice([model.idx_qs[i] for i in ids]), v=as_slice([model.idx_vs[i] for i in ids]))
 
     @classmethod
     def for_mujoco(cls, model: mujoco.MjModel) -> JointMap:
-        ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) for name in c.JOINT_NAMES]
+        ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name) for name in digit.JOINT_NAMES]
         if min(ids) < 0:
-            missing = [n for n, i in zip(c.JOINT_NAMES, ids) if i < 0]
+            missing = [n for n, i in zip(digit.JOINT_NAMES, ids) if i < 0]
             raise ModelLoadError(f"MuJoCo model lacks joints {missing}")
         return cls(q=as_slice(model.jnt_qposadr[ids]), v=as_slice(model.jnt_dofadr[ids]))
 
@@ -155,7 +155,7 @@ class JointMap:
 def pinocchio_configuration(base_pos: np.ndarray, base_quat_wxyz: np.ndarray, q_joints: np.ndarray,
                             joint_map: JointMap) -> np.ndarray:
     """Pinocchio q from a base pose and joint positions in `JOINT_NAMES` order."""
-    q = np.empty(7 + c.NUM_JOINTS)
+    q = np.empty(7 + digit.NUM_JOINTS)
     q[:3] = base_pos
     w, x, y, z = np.asarray(base_quat_wxyz, dtype=float).tolist()
     q[3:7] = x, y, z, w  # pinocchio's order
@@ -167,7 +167,7 @@ def pinocchio_velocity(base_quat_wxyz: np.ndarray, v_world_base: np.ndarray, w_w
                        qd_joints: np.ndarray, joint_map: JointMap) -> np.ndarray:
     """Pinocchio v (base twist in the base frame) from world-frame base velocities."""
     quat = np.asarray(base_quat_wxyz, dtype=float).tolist()
-    v = np.empty(6 + c.NUM_JOINTS)
+    v = np.empty(6 + digit.NUM_JOINTS)
     v[:3] = rotate_inverse(quat, np.asarray(v_world_base, dtype=float))
     v[3:6] = rotate_inverse(quat, np.asarray(w_world_base, dtype=float))
     v[joint_map.v] = qd_joints

@@ -9,7 +9,7 @@ from mbc.geometry import yaw_rotation
 from mbc.pin_robot import PinRobot
 from mbc.sim import DigitSim
 from mbc.types import JointCommand
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
 
 @pytest.fixture(scope="module")
@@ -46,8 +46,8 @@ def test_point_mass_motion_gives_m_z_xdot(robot):
     contact = np.r_[robot.com[:2], 0.0]
     alip = alip_state(robot, contact, yaw=0.0)
     np.testing.assert_allclose(alip.x, 0.0, atol=1e-12)
-    np.testing.assert_allclose(alip.L, c.TOTAL_MASS_KG * robot.com[2] * np.array([0.4, -0.2]), rtol=1e-12)
-    assert alip.com_height == pytest.approx(c.COM_HEIGHT_STAND_M, abs=3e-3)
+    np.testing.assert_allclose(alip.L, digit.TOTAL_MASS_KG * robot.com[2] * np.array([0.4, -0.2]), rtol=1e-12)
+    assert alip.com_height_above_contact_m == pytest.approx(digit.COM_HEIGHT_STAND_M, abs=3e-3)
 
 
 def test_heading_frame_rotates_with_yaw(robot):
@@ -57,7 +57,7 @@ def test_heading_frame_rotates_with_yaw(robot):
     robot.update(state)
     alip = alip_state(robot, np.r_[robot.com[:2] - [0.0, 0.1], 0.0], yaw=np.pi / 2)  # facing +y
     np.testing.assert_allclose(alip.x, [0.1, 0.0], atol=1e-12)  # CoM ahead of the contact
-    assert alip.L[0] == pytest.approx(c.TOTAL_MASS_KG * robot.com[2] * 0.5)
+    assert alip.L[0] == pytest.approx(digit.TOTAL_MASS_KG * robot.com[2] * 0.5)
     assert alip.L[1] == pytest.approx(0.0, abs=1e-9)
 
 
@@ -74,4 +74,4 @@ def test_alip_state_is_the_heading_frame_view_of_the_momentum_about_the_contact(
         np.testing.assert_allclose(alip.x, (to_heading @ (robot.com - point))[:2], atol=1e-12)
         np.testing.assert_allclose(alip.L, [momentum[1], -momentum[0]], atol=1e-10)
         np.testing.assert_allclose(alip.com_velocity, to_heading @ robot.com_velocity, atol=1e-12)
-        assert alip.com_height == pytest.approx(robot.com[2] - point[2], abs=1e-12)
+        assert alip.com_height_above_contact_m == pytest.approx(robot.com[2] - point[2], abs=1e-12)

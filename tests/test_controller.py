@@ -12,11 +12,12 @@ from mbc.fuzz import random_robot_state
 from mbc.rollout import Push, run_episode
 from mbc.sim import DigitSim
 from mbc.types import Command
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture
 def controller():
+    """A fresh controller per test: no state carried from one test to the next."""
     return AlipController.for_digit()
 
 
@@ -93,12 +94,19 @@ def test_pd_output_reproduces_the_qp_torque_at_the_tick(controller):
 
 
 def test_torque_output_mode():
+    """The QP torque goes out as feed-forward over a PD that holds the state (so the PD adds nothing)."""
     controller = AlipController.for_digit(output="torque")
     sim = DigitSim()
     state = sim.reset()
-    action = controller.act(state, Command())
-    np.testing.assert_allclose(action.tau_ff, controller.last_diagnostics.tau)
-    np.testing.assert_allclose(action.q_des, state.q)
+    for _ in range(20):
+        action = controller.act(state, Command(0.3))
+        diagnostics = controller.last_diagnostics
+        assert not diagnostics.fallback and diagnostics.assumptions.qp_solved
+        assert np.abs(diagnostics.tau).max() > 10.0  # it carries the robot's weight, not a zero hold
+        np.testing.assert_allclose(action.tau_ff, diagnostics.tau)
+        np.testing.assert_allclose(action.q_des, state.q)
+        np.testing.assert_allclose(action.qd_des, state.qd)
+        state = sim.step(action)
 
 
 def test_public_imports():
@@ -126,16 +134,21 @@ def test_out_of_range_command_is_clipped_and_reported(controller):
 
 def test_randomized_and_corrupted_states_never_raise(rng):
     controller = AlipController.for_digit()
+    corrupted = 0
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         for _ in range(300):
             state = random_robot_state(rng)
             if rng.random() < 0.2:
                 controller.reset(state)
-            action = controller.act(state, Command(*rng.uniform(-2, 2, 3)))
-            for array in (action.q_des, action.qd_des, action.tau_ff):
-                assert np.isfinite(array).all()
-    assert controller.fallback_count > 0  # the corrupted ones fell back, and were counted
+            implausible = not AlipController._plausible_state(state)
+            before = controller.fallback_count
+            action = controller.act(state, Command(*rng.uniform(-2, 2, 3)))  # a JointCommand: finite by construction
+            if implausible:  # caught before any solver ran: a damped hold, counted
+                assert controller.last_diagnostics.fallback and controller.fallback_count == before + 1
+                assert not action.qd_des.any() and not action.tau_ff.any()
+                corrupted += 1
+    assert corrupted > 30
 
 
 def test_implausible_states_are_recognized():
@@ -147,7 +160,7 @@ def test_implausible_states_are_recognized():
         "infinite velocity": lambda s: s.base_linvel.__setitem__(1, np.inf), "zero quaternion": lambda s: s.base_quat.fill(0.0),
         "base speed 25 m/s": lambda s: s.base_linvel.__setitem__(0, 25.0),
         "spin 60 rad/s": lambda s: s.base_angvel.__setitem__(2, 60.0),
-        "one joint at 11x its speed limit": lambda s: s.qd.__setitem__(7, -11 * c.SPEED_LIMIT_RADPS[7]),
+        "one joint at 11x its speed limit": lambda s: s.qd.__setitem__(7, -11 * digit.SPEED_LIMIT_RADPS[7]),
     }
     for name, corrupt in corruptions.items():
         corrupted = copy.deepcopy(state)
@@ -165,3 +178,15 @@ def test_gait_end_momenta_are_the_alip_models():
             assert Lx == pytest.approx(model.mz * model.end_velocity_for_mean(vx, T), abs=1e-12)
             assert Ly == pytest.approx(model.lateral_end_momentum(sign, width, T, vy), abs=1e-12)
             assert Ly != pytest.approx(model.lateral_end_momentum(-sign, width, T, vy), abs=1e-3)  # the side matters
+
+
+def test_a_programming_error_inside_the_tick_surfaces(controller, monkeypatch):
+    """Only solver failures become fallbacks; a bug (here a TypeError in the IK call) is raised."""
+    state = DigitSim().reset()
+    monkeypatch.setattr(controller.ik, "solve", lambda *args: None + 1)
+    with pytest.raises(TypeError):
+        controller.act(state, Command(0.3))
+    monkeypatch.setattr(controller.ik, "solve", lambda *args: (_ for _ in ()).throw(RuntimeError("QP failed")))
+    with pytest.warns(RuntimeWarning, match="QP failed"):
+        controller.act(state, Command(0.3))
+    assert controller.last_diagnostics.fallback

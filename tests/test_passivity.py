@@ -7,7 +7,7 @@ import pytest
 from mbc.passivity import A_SLICE, NV, PassivityQp, corner_wrench_map, num_inequalities, num_variables, sole_corners
 from mbc.pin_robot import PinRobot
 from mbc.sim import DigitSim
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +22,7 @@ def moving(rng):
     """A robot in a random configuration with a random velocity (the QP reads (q, v) only)."""
     robot = PinRobot()
     state = DigitSim().reset()
-    state.q = state.q + rng.uniform(-0.3, 0.3, c.NUM_JOINTS)
+    state.q = state.q + rng.uniform(-0.3, 0.3, digit.NUM_JOINTS)
     state.qd, state.base_linvel, state.base_angvel = rng.normal(size=12), rng.normal(size=3), rng.normal(size=3)
     robot.update(state)
     return robot
@@ -83,7 +83,7 @@ def test_standing_solution_supports_the_weight_and_satisfies_kkt(standing):
     y, z = solver.results.y, solver.results.z
     stationarity = problem.H @ solver.results.x + problem.g + problem.A.T @ y + problem.C.T @ z
     assert np.abs(stationarity).max() < 1e-3
-    assert result.forces[:, 2].sum() == pytest.approx(c.TOTAL_MASS_KG * 9.81, rel=0.02)
+    assert result.forces[:, 2].sum() == pytest.approx(digit.TOTAL_MASS_KG * 9.81, rel=0.02)
     assert np.abs(result.acceleration).max() < 0.5
 
 
@@ -97,8 +97,8 @@ def test_swing_foot_carries_no_force_and_cones_and_limits_hold(standing):
     mu = qp.config.friction
     assert np.all(left[:, 2] >= -1e-3)
     assert np.all(np.abs(left[:, :2]) <= mu * left[:, 2:3] + 1e-3)
-    assert np.all(np.abs(result.tau_qp) <= c.TORQUE_LIMIT_NM + 1e-3)
-    assert np.all(np.abs(result.tau) <= c.TORQUE_LIMIT_NM + 1e-9)
+    assert np.all(np.abs(result.tau_qp) <= digit.TORQUE_LIMIT_NM + 1e-3)
+    assert np.all(np.abs(result.tau) <= digit.TORQUE_LIMIT_NM + 1e-9)
 
 
 def test_no_foot_in_contact_is_an_error(standing):
@@ -191,6 +191,6 @@ def test_torque_is_the_qp_torque_minus_the_passivity_feedback(moving, rng):
     result = qp.solve(moving, problem, sliding)
     coriolis = pin.computeCoriolisMatrix(moving.model, moving.data, moving.q, moving.v)[6:, 6:]
     damping = np.tile(qp.config.damping, 2)
-    expected = np.clip(result.tau_qp - coriolis @ sliding - damping * sliding, -c.TORQUE_LIMIT_NM, c.TORQUE_LIMIT_NM)
+    expected = np.clip(result.tau_qp - coriolis @ sliding - damping * sliding, -digit.TORQUE_LIMIT_NM, digit.TORQUE_LIMIT_NM)
     np.testing.assert_allclose(result.tau, expected, atol=1e-9)
     assert np.abs(sliding).max() > 0.1  # the feedback is not trivially zero

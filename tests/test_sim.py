@@ -9,13 +9,13 @@ import pytest
 from mbc.errors import ConfigError
 from mbc.sim import DigitSim, DomainParams, SimConfig
 from mbc.types import JointCommand
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
 
 def test_pd_stand_keeps_robot_up_for_5_s():
     sim = DigitSim("flat", seed=0)
     state = sim.reset()
-    hold = JointCommand.hold(c.Q_STAND)
+    hold = JointCommand.hold(digit.Q_STAND)
     for _ in range(int(5.0 / sim.dt)):
         state = sim.step(hold)
         assert not sim.fallen
@@ -23,7 +23,7 @@ def test_pd_stand_keeps_robot_up_for_5_s():
     assert state.base_pos[2] > 0.95
     assert np.all(state.contact)
     # both feet carry the weight between them
-    assert state.foot_force.sum() == pytest.approx(c.TOTAL_MASS_KG * 9.81, rel=0.05)
+    assert state.foot_force.sum() == pytest.approx(digit.TOTAL_MASS_KG * 9.81, rel=0.05)
 
 
 def test_push_changes_total_momentum_by_impulse():
@@ -35,11 +35,11 @@ def test_push_changes_total_momentum_by_impulse():
 
     def momentum():
         mujoco.mj_subtreeVel(sim.model, sim.data)
-        return c.TOTAL_MASS_KG * sim.data.subtree_linvel[0].copy()
+        return digit.TOTAL_MASS_KG * sim.data.subtree_linvel[0].copy()
 
     before = momentum()
     sim.push(force, duration)
-    hold = JointCommand.hold(c.Q_STAND)
+    hold = JointCommand.hold(digit.Q_STAND)
     for _ in range(int(0.3 / sim.dt)):  # the push ends mid-run; momentum is then conserved
         sim.step(hold)
     np.testing.assert_allclose(momentum() - before, force * duration, rtol=1e-3, atol=1e-3)
@@ -108,9 +108,9 @@ def test_torque_is_pd_plus_feedforward_clipped():
     tau_ff[3] = 1e4  # far past the knee limit: clipped
     sim.data.ctrl[:] = sim._ctrl(JointCommand(q_des, np.zeros(12), tau_ff))
     mujoco.mj_forward(sim.model, sim.data)
-    expected = np.clip(sim.kp * 0.01 - sim.kd * state.qd + tau_ff, -c.TORQUE_LIMIT_NM, c.TORQUE_LIMIT_NM)
+    expected = np.clip(sim.kp * 0.01 - sim.kd * state.qd + tau_ff, -digit.TORQUE_LIMIT_NM, digit.TORQUE_LIMIT_NM)
     np.testing.assert_allclose(sim.data.actuator_force, expected, atol=1e-9)
-    assert sim.data.actuator_force[3] == pytest.approx(c.TORQUE_LIMIT_NM[3])
+    assert sim.data.actuator_force[3] == pytest.approx(digit.TORQUE_LIMIT_NM[3])
 
 
 def test_domain_hooks_apply_and_restore():

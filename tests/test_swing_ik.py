@@ -51,7 +51,7 @@ def test_ik_reaches_swing_target_keeps_stance_and_height():
     left = robot.sole_position(0)
     com_z = left[2] + 0.94
     targets = IkTargets(stance=0, swing_position=right + [0.08, 0.0, 0.05], swing_velocity=np.zeros(3),
-                        swing_yaw=0.0, ground_normal=np.array([0.0, 0.0, 1.0]), pelvis_yaw=0.0, com_height=com_z,
+                        swing_yaw=0.0, ground_normal=np.array([0.0, 0.0, 1.0]), pelvis_yaw=0.0, com_z_world_m=com_z,
                         pelvis_xy=state.base_pos[:2],
                         pelvis_xy_velocity=np.zeros(2))
     q = robot.q

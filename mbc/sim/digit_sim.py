@@ -19,7 +19,7 @@ from mbc.robot import JointMap, as_slice, digit_mjspec
 from mbc.sim.domain import DomainParams
 from mbc.sim.terrain import TERRAIN_GROUP, TerrainConfig, add_terrain, make_terrain
 from mbc.types import CONTROL_PERIOD_S, JointCommand, RobotState
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
 
 @dataclass(frozen=True)
@@ -30,9 +30,9 @@ class SimConfig:
     """Physics step [s]; the PD law runs at this rate."""
     control_dt_s: float = CONTROL_PERIOD_S
     """Control period [s]: one `step` call."""
-    kp: np.ndarray = field(default_factory=lambda: c.KP_DEFAULT.copy())
+    kp: np.ndarray = field(default_factory=lambda: digit.KP_DEFAULT.copy())
     """(12,) joint stiffness [N m / rad]."""
-    kd: np.ndarray = field(default_factory=lambda: c.KD_DEFAULT.copy())
+    kd: np.ndarray = field(default_factory=lambda: digit.KD_DEFAULT.copy())
     """(12,) joint damping [N m s / rad]."""
     fall_height_m: float = 0.6
     """The robot has fallen when the pelvis is less than this above the terrain below it [m]."""
@@ -46,8 +46,8 @@ class SimConfig:
                               f"timestep_s ({self.timestep_s})")
         for name in ("kp", "kd"):
             gains = np.asarray(getattr(self, name), dtype=float)
-            if gains.shape != (c.NUM_JOINTS,) or np.any(gains < 0) or not np.all(np.isfinite(gains)):
-                raise ConfigError(f"{name} must be ({c.NUM_JOINTS},) non-negative finite gains, got {gains}")
+            if gains.shape != (digit.NUM_JOINTS,) or np.any(gains < 0) or not np.all(np.isfinite(gains)):
+                raise ConfigError(f"{name} must be ({digit.NUM_JOINTS},) non-negative finite gains, got {gains}")
 
     @property
     def substeps(self) -> int:
@@ -77,10 +77,10 @@ class DigitSim:
         self.data = mujoco.MjData(self.model)
         self.dt = self.config.control_dt_s
         self.joint_map = JointMap.for_mujoco(self.model)
-        self._pelvis = self.model.body(c.BASE_LINK).id
-        self._touch_adr = as_slice([self.model.sensor_adr[self.model.sensor(f"{f}_touch").id] for f in c.FOOT_LINKS])
+        self._pelvis = self.model.body(digit.BASE_LINK).id
+        self._touch_adr = as_slice([self.model.sensor_adr[self.model.sensor(f"{f}_touch").id] for f in digit.FOOT_LINKS])
         self._is_terrain = self.model.geom_group == TERRAIN_GROUP
-        foot_geoms = [self.model.geom(f"{f}_box").id for f in c.FOOT_LINKS]
+        foot_geoms = [self.model.geom(f"{f}_box").id for f in digit.FOOT_LINKS]
         self._is_body_part = (~self._is_terrain) & (self.model.geom_bodyid > 0)
         self._is_body_part[foot_geoms] = False
         self._nominal = {"body_mass": self.model.body_mass.copy(), "body_inertia": self.model.body_inertia.copy(),
@@ -88,7 +88,7 @@ class DigitSim:
         self._ray_groups = np.zeros(6, np.uint8)
         self._ray_groups[TERRAIN_GROUP] = 1
         self._ray_geom = np.zeros(1, np.int32)
-        self._strength = np.ones(c.NUM_JOINTS)
+        self._strength = np.ones(digit.NUM_JOINTS)
         self._delay_substeps = 0
         self._push_substeps_left = 0
         self._set_gains(self.config.kp, self.config.kd)
@@ -103,10 +103,10 @@ class DigitSim:
             self.rng = np.random.default_rng(seed)
         mujoco.mj_resetData(self.model, self.data)
         mujoco.mj_kinematics(self.model, self.data)  # terrain geom poses, for the height query
-        self.data.qpos[:3] = [0.0, 0.0, self.terrain_height(0.0, 0.0) + c.PELVIS_HEIGHT_STAND_M + 0.002]
+        self.data.qpos[:3] = [0.0, 0.0, self.terrain_height(0.0, 0.0) + digit.PELVIS_HEIGHT_STAND_M + 0.002]
         self.data.qpos[3:7] = [1.0, 0.0, 0.0, 0.0]
-        self.data.qpos[self.joint_map.q] = c.Q_STAND
-        self.data.ctrl[:] = self._ctrl(JointCommand.hold(c.Q_STAND))
+        self.data.qpos[self.joint_map.q] = digit.Q_STAND
+        self.data.ctrl[:] = self._ctrl(JointCommand.hold(digit.Q_STAND))
         self._push_substeps_left = 0
         mujoco.mj_forward(self.model, self.data)
         return self.state()
@@ -209,7 +209,7 @@ class DigitSim:
         m.body_ipos[self._pelvis] += params.com_offset_m
         m.geom_friction[:] = nominal["geom_friction"]
         m.geom_friction[:, 0] = params.friction
-        self._strength = np.broadcast_to(np.asarray(params.motor_strength, dtype=float), (c.NUM_JOINTS,)).copy()
+        self._strength = np.broadcast_to(np.asarray(params.motor_strength, dtype=float), (digit.NUM_JOINTS,)).copy()
         delay = int(round(params.delay_s / self.config.timestep_s))
         if delay >= self.config.substeps:
             raise ConfigError(f"delay_s must be below the control period {self.config.control_dt_s} s, got {params.delay_s}")

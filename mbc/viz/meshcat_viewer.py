@@ -24,7 +24,7 @@ from mbc.sim import DigitSim
 from mbc.sim.terrain import TERRAIN_GROUP
 from mbc.types import RobotState
 from mbc.viz.meshcat_server import start_server
-from robots.digit import constants as c
+from robots.digit import constants as digit
 
 _BODY = 0x5a6478
 _FOOT = 0xcc8033
@@ -63,7 +63,7 @@ class MeshcatViewer:
         self.vis = meshcat.Visualizer(zmq_url=zmq_url)
         print(f"meshcat viewer at {self.url}")
         self.robot = PinRobot()
-        self._joint_ids = {name: self.robot.model.getJointId(name) for name in c.JOINT_NAMES}
+        self._joint_ids = {name: self.robot.model.getJointId(name) for name in digit.JOINT_NAMES}
         self._frames: list[tuple[float, dict[str, np.ndarray]]] = []
         self._footsteps = 0
         self._max_footsteps = max_footsteps
@@ -84,16 +84,16 @@ class MeshcatViewer:
         material = g.MeshLambertMaterial(color=_BODY)
         self.vis["robot/pelvis/box"].set_object(g.Box([0.2, 0.3, 0.45]), material)
         self.vis["robot/pelvis/box"].set_transform(tf.translation_matrix([0, 0, 0.2]))
-        for side in c.SIDES:
-            links = c.leg_links(side)
+        for side in digit.SIDES:
+            links = digit.leg_links(side)
             thigh, shank = np.array(links[3].offset_m), np.array(links[4].offset_m)
             for name, end, radius in (("hip_pitch", thigh, 0.05), ("knee", shank, 0.035)):
                 path = f"robot/{side}_{name}/segment"
                 self.vis[path].set_object(g.Cylinder(float(np.linalg.norm(end)), radius), material)
                 self.vis[path].set_transform(_segment_transform(np.zeros(3), end))
             foot = f"robot/{side}_ankle_roll/foot"
-            centre = c.FOOT_BOX_CENTER_M if side == "left" else c.mirror_y(c.FOOT_BOX_CENTER_M)
-            self.vis[foot].set_object(g.Box(list(c.FOOT_SIZE_M)), g.MeshLambertMaterial(color=_FOOT))
+            centre = digit.FOOT_BOX_CENTER_M if side == "left" else digit.mirror_y(digit.FOOT_BOX_CENTER_M)
+            self.vis[foot].set_object(g.Box(list(digit.FOOT_SIZE_M)), g.MeshLambertMaterial(color=_FOOT))
             self.vis[foot].set_transform(tf.translation_matrix(centre))
             self.vis[f"robot/{side}_hip_roll/joint"].set_object(g.Sphere(0.05), material)
 
@@ -170,7 +170,7 @@ class MeshcatViewer:
 
     def _add_footstep(self, position: np.ndarray) -> None:
         path = f"footsteps/{self._footsteps % self._max_footsteps}"
-        self.vis[path].set_object(g.Box([c.FOOT_SIZE_M[0], c.FOOT_SIZE_M[1], 0.004]),
+        self.vis[path].set_object(g.Box([digit.FOOT_SIZE_M[0], digit.FOOT_SIZE_M[1], 0.004]),
                                   g.MeshLambertMaterial(color=0x2255aa, opacity=0.6))
         self.vis[path].set_transform(tf.translation_matrix(position + [0, 0, 0.002]))
         self._footsteps += 1

@@ -34,7 +34,7 @@ def phase_portrait(episode: Episode, path: Path) -> Path:
     times = np.array([t for t, _ in ticks])
     x = np.array([d.alip.x for _, d in ticks])
     L = np.array([d.alip.L for _, d in ticks])
-    scale = TOTAL_MASS_KG * np.array([d.alip.com_height for _, d in ticks])[:, None]
+    scale = TOTAL_MASS_KG * np.array([d.alip.com_height_above_contact_m for _, d in ticks])[:, None]
     fig, axes = plt.subplots(1, 2, figsize=(10, 4))
     for axis, name in enumerate(("sagittal", "lateral")):
         points = axes[axis].scatter(x[:, axis], L[:, axis] / scale[:, 0], c=times, s=3, cmap="viridis")
