@@ -33,11 +33,12 @@ def chromium():
     return path
 
 
-def screenshot(chromium: str, url: str, out, live: bool):
-    """PNG of `url` as an (h, w, 3) float array; live pages keep a websocket open, so wait in real time."""
-    wait = "--timeout=6000" if live else "--virtual-time-budget=8000"
-    subprocess.run([chromium, *CHROMIUM_FLAGS, f"--user-data-dir={tempfile.mkdtemp()}", f"--screenshot={out}", wait, url],
-                   check=True, capture_output=True, timeout=120)
+def screenshot(chromium: str, url: str, out):
+    """PNG of `url` as an (h, w, 3) float array. Live pages too are shot after a virtual-time budget:
+    with `--timeout`, Chromium shoots at the page's load event, before the scene has come over the
+    websocket (the terrain and the camera preset then look missing)."""
+    subprocess.run([chromium, *CHROMIUM_FLAGS, f"--user-data-dir={tempfile.mkdtemp()}", f"--screenshot={out}",
+                    "--virtual-time-budget=8000", url], check=True, capture_output=True, timeout=120)
     return matplotlib.image.imread(out)[..., :3]
 
 
@@ -48,11 +49,11 @@ def drawn_blob(image, reference) -> tuple[int, int]:
     return int(mask.sum()), int(rows[-1] - rows[0]) if len(rows) else 0
 
 
-def scene_screenshot(chromium: str, url: str, out, empty_scene, live: bool, attempts: int = 3):
+def scene_screenshot(chromium: str, url: str, out, empty_scene, attempts: int = 3):
     """A page once it shows more than an empty scene: a cold browser on a busy machine can take the
     screenshot before the scene has arrived (seen once in CI); retried, the checks are not waived."""
     for _ in range(attempts):
-        image = screenshot(chromium, url, out, live=live)
+        image = screenshot(chromium, url, out)
         if drawn_blob(image, empty_scene)[0] > 0:
             break
     return image
@@ -63,14 +64,16 @@ def empty_scene(chromium, tmp_path_factory):
     server, zmq_url, web_url = start_server()
     empty = meshcat.Visualizer(zmq_url=zmq_url)
     try:
-        yield screenshot(chromium, web_url, tmp_path_factory.mktemp("empty") / "empty.png", live=True)
+        yield screenshot(chromium, web_url, tmp_path_factory.mktemp("empty") / "empty.png")
     finally:
         empty.window.zmq_socket.close(linger=0)
         server.terminate()
         server.wait()
 
 
-def test_live_viewer_and_exported_html_draw_the_robot(chromium, empty_scene, tmp_path):
+def test_live_viewer_and_exported_html_draw_the_robot_in_frame(chromium, empty_scene, tmp_path):
+    """The robot is drawn, live and in the replay, and the camera keeps it in the frame after it has
+    walked away from the origin (5 s at 0.6 m/s, turning)."""
     sim = DigitSim()
     viewer = MeshcatViewer(sim)
     try:
@@ -78,19 +81,18 @@ def test_live_viewer_and_exported_html_draw_the_robot(chromium, empty_scene, tmp
         controller = AlipController.for_digit()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            walker = threading.Thread(target=run_episode, args=(sim, controller, Command(0.3), 2.0),
+            walker = threading.Thread(target=run_episode, args=(sim, controller, Command(0.6, 0.0, 0.3), 5.0),
                                       kwargs={"on_tick": viewer.on_tick(controller)})
             walker.start()
-            live = scene_screenshot(chromium, viewer.url, tmp_path / "live.png", empty_scene, live=True)
+            live = scene_screenshot(chromium, viewer.url, tmp_path / "live.png", empty_scene)
             walker.join()
         html = viewer.export_html(tmp_path / "walk.html")
-        exported = scene_screenshot(chromium, html.as_uri(), tmp_path / "exported.png", empty_scene, live=False)
+        exported = scene_screenshot(chromium, html.as_uri(), tmp_path / "exported.png", empty_scene)
         # the same pages without the robot: what remains is terrain and markers
         viewer.vis["robot"].set_property("visible", False)
-        live_hidden = scene_screenshot(chromium, viewer.url, tmp_path / "live_hidden.png", empty_scene, live=True)
+        live_hidden = scene_screenshot(chromium, viewer.url, tmp_path / "live_hidden.png", empty_scene)
         hidden_html = viewer.export_html(tmp_path / "walk_hidden.html")
-        exported_hidden = scene_screenshot(chromium, hidden_html.as_uri(), tmp_path / "exported_hidden.png", empty_scene,
-                                           live=False)
+        exported_hidden = scene_screenshot(chromium, hidden_html.as_uri(), tmp_path / "exported_hidden.png", empty_scene)
     finally:
         viewer.close()
     for image, without_robot in ((live, live_hidden), (exported, exported_hidden)):
@@ -98,6 +100,10 @@ def test_live_viewer_and_exported_html_draw_the_robot(chromium, empty_scene, tmp
         assert drawn_blob(image, empty_scene)[0] > 1500  # differs from an empty meshcat scene
         pixels, height = drawn_blob(image, without_robot)
         assert pixels > 1500 and height > 80  # the robot: a tall, robot-sized blob
+        rows, columns = np.nonzero(np.abs(image - without_robot).max(axis=-1) > 0.1)
+        margin = 10  # not cut off by the frame's edges (the menu bar at the top is 20 px)
+        assert rows.min() > 20 + margin and rows.max() < image.shape[0] - margin
+        assert columns.min() > margin and columns.max() < image.shape[1] - margin
     assert html.stat().st_size > 100_000 and "<script" in html.read_text()[:2_000_000]
 
 
@@ -110,3 +116,54 @@ def test_plots_are_written_and_not_empty(tmp_path):
     for path in paths:
         image = matplotlib.image.imread(path)
         assert path.stat().st_size > 10_000 and image.shape[0] > 300 and image[..., :3].std() > 0.02
+
+
+def test_replay_animates_the_follow_camera_markers_and_footprints(monkeypatch):
+    """The exported replay moves what the live view moves: the world under the follow camera, the
+    CoM's colour, the stance-to-CoM segment's length, and each footprint appearing at its touchdown."""
+    sim = DigitSim()
+    viewer = MeshcatViewer(sim)
+    try:
+        controller = AlipController.for_digit()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            run_episode(sim, controller, Command(0.5, 0.0, 0.0), 2.0, on_tick=viewer.on_tick(controller))
+        captured = []
+        monkeypatch.setattr(meshcat.Visualizer, "set_animation", lambda _vis, animation, **_: captured.append(animation))
+        viewer.replay()
+    finally:
+        viewer.close()
+    clips = {path.lower(): clip for path, clip in captured[0].clips.items()}
+    world = clips["/meshcat"].tracks["position"]
+    assert world.values[-1][0] < world.values[0][0] - 0.5  # the world slides back as the robot walks forward
+    footprints = sorted(p for p in clips if p.startswith("/meshcat/footsteps/"))
+    assert len(footprints) >= 4
+    appear = []
+    for path in footprints:
+        track = clips[path].tracks["visible"]
+        assert track.values == [False, True] and track.frames[0] == 0 < track.frames[1]
+        appear.append(track.frames[1])
+    assert appear == sorted(appear)  # in the order of the touchdowns
+    colours = clips["/meshcat/markers/com"].tracks["material.color"].values
+    assert len(colours) > 20 and len({tuple(c) for c in colours}) > 1
+    lengths = [v[1] for v in clips["/meshcat/markers/alip"].tracks["scale"].values]
+    assert 0.8 < min(lengths) and max(lengths) < 1.2 and max(lengths) - min(lengths) > 0.01
+
+
+def test_velocity_average_has_no_edge_dip_and_footstep_legend_is_unique(monkeypatch, tmp_path):
+    from mbc.viz import plots
+
+    constant = np.full(200, 0.4)
+    np.testing.assert_allclose(plots.moving_average(constant, 140), 0.4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        episode = run_episode(DigitSim(), AlipController.for_digit(), Command(0.3), 2.0)
+    figures = []
+    monkeypatch.setattr(plots, "_save", lambda fig, path: figures.append(fig) or path)
+    plots.foot_placements(episode, tmp_path / "f.png")
+    axes = figures[0].axes[0]
+    labels = [text.get_text() for text in axes.get_legend().get_texts()]
+    assert len(labels) == len(set(labels)) == 5
+    figures[0].canvas.draw()
+    legend_box = axes.get_legend().get_window_extent()
+    assert legend_box.y1 < axes.get_window_extent().y0  # below the axes, not over the data

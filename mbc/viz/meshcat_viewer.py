@@ -9,6 +9,7 @@ reference, coloured by model-assumption violation; live, recorded and exported a
 from __future__ import annotations
 
 import atexit
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import meshcat
@@ -51,10 +52,19 @@ def violation_colour(com_vertical_velocity_mps: float) -> int:
     return (red << 16) | (green << 8) | 40
 
 
+@dataclass
+class _Frame:
+    """One drawn tick: transforms and animatable properties ((path, property) -> (three.js type, value))."""
+
+    time_s: float
+    poses: dict[str, np.ndarray] = field(default_factory=dict)
+    properties: dict[tuple[str, str], tuple[str, object]] = field(default_factory=dict)
+
+
 class MeshcatViewer:
     """Draws `DigitSim` states and controller diagnostics in meshcat; records for replay."""
 
-    def __init__(self, sim: DigitSim | None = None, zmq_url: str | None = None, max_footsteps: int = 40) -> None:
+    def __init__(self, sim: DigitSim | None = None, zmq_url: str | None = None) -> None:
         """Connect to the meshcat server at `zmq_url`, or start one on loopback that ends with this program."""
         self._server = None
         if zmq_url is None:
@@ -64,13 +74,15 @@ class MeshcatViewer:
         print(f"meshcat viewer at {self.url}")
         self.robot = PinRobot()
         self._joint_ids = {name: self.robot.model.getJointId(name) for name in digit.JOINT_NAMES}
-        self._frames: list[tuple[float, dict[str, np.ndarray]]] = []
+        self._frames: list[_Frame] = []
         self._footsteps = 0
-        self._max_footsteps = max_footsteps
+        self._touchdowns: list[np.ndarray] = []  # stance soles at touchdowns not yet drawn
         self._draw_robot()
         self._draw_markers()
-        # an oblique view from the front left (the camera frame is y-up)
+        # an oblique view from the front left (the camera frame is y-up); the grid would stand still
+        # under the walking robot (the world moves, see `update`), the terrain shows the ground
         self.vis["/Cameras/default/rotated/<object>"].set_property("position", [2.2, 1.0, 2.2])
+        self.vis["/Grid"].set_property("visible", False)
         if sim is not None:
             self.draw_terrain(sim.model)
 
@@ -101,6 +113,8 @@ class MeshcatViewer:
         self.vis["markers/com"].set_object(g.Sphere(0.04), g.MeshLambertMaterial(color=0x28ff28))
         self.vis["markers/target"].set_object(g.Cylinder(0.005, 0.06), g.MeshLambertMaterial(color=0x3366ff, opacity=0.8))
         self.vis["markers/swing"].set_object(g.Sphere(0.02), g.MeshLambertMaterial(color=0xffcc00))
+        # the stance-contact-to-CoM segment: a unit cylinder along y, scaled to its length each frame
+        self.vis["markers/alip"].set_object(g.Cylinder(1.0, 0.008), g.MeshLambertMaterial(color=0x28ff28))
 
     def draw_terrain(self, model: mujoco.MjModel) -> None:
         """Draw the terrain geoms of a compiled `DigitSim` model (planes, boxes, heightfields)."""
@@ -148,55 +162,87 @@ class MeshcatViewer:
         return poses
 
     def update(self, state: RobotState, diagnostics=None) -> None:
-        """Draw `state` and, if given, the controller's diagnostics of that tick; record the frame."""
-        poses = self._link_poses(state)
-        poses["/Cameras/default"] = tf.translation_matrix([state.base_pos[0], state.base_pos[1], 0.0])  # follow
+        """Draw `state` and, if given, the controller's diagnostics of that tick; record the frame.
+
+        The camera follows the robot by moving the world under it (meshcat's orbit controls keep aiming
+        at the origin, so moving the camera itself loses the robot)."""
+        frame = _Frame(state.time)
+        frame.poses = self._link_poses(state)
+        x, y, z = state.base_pos.tolist()
+        frame.poses["/meshcat"] = tf.translation_matrix([-x, -y, -(z - digit.PELVIS_HEIGHT_STAND_M)])
         com = self.robot.com
-        poses["markers/com"] = tf.translation_matrix(com)
+        frame.poses["markers/com"] = tf.translation_matrix(com)
         if diagnostics is not None and diagnostics.alip is not None:
             colour = violation_colour(diagnostics.assumptions.com_vertical_velocity_mps)
-            self.vis["markers/com"].set_property("color", [((colour >> s) & 255) / 255 for s in (16, 8, 0)] + [1.0])
-            poses["markers/target"] = tf.translation_matrix(diagnostics.foot_target_world) @ tf.rotation_matrix(
+            rgb = [((colour >> shift) & 255) / 255 for shift in (16, 8, 0)]
+            for path in ("markers/com", "markers/alip"):
+                frame.properties[(path, "material.color")] = ("color", rgb)
+            frame.poses["markers/target"] = tf.translation_matrix(diagnostics.foot_target_world) @ tf.rotation_matrix(
                 np.pi / 2, [1, 0, 0])
-            poses["markers/swing"] = tf.translation_matrix(diagnostics.swing_reference_world)
+            frame.poses["markers/swing"] = tf.translation_matrix(diagnostics.swing_reference_world)
             contact = diagnostics.stance_sole_world
-            self.vis["markers/alip"].set_object(g.Line(g.PointsGeometry(np.c_[contact, com].astype(np.float32)),
-                                                       g.LineBasicMaterial(color=colour, linewidth=3)))
+            frame.poses["markers/alip"] = _segment_transform(contact, com)
+            frame.properties[("markers/alip", "scale")] = ("vector3", [1.0, float(np.linalg.norm(com - contact)), 1.0])
             if diagnostics.touchdown:
-                self._add_footstep(contact)
-        for path, pose in poses.items():
-            self.vis[path].set_transform(pose)
-        self._frames.append((state.time, poses))
+                self._touchdowns.append(contact)
+        for contact in self._touchdowns:  # this tick's and those of the ticks not drawn since the last frame
+            frame.properties[(self._add_footstep(contact), "visible")] = ("boolean", True)
+        self._touchdowns.clear()
+        self._draw(frame)
+        self._frames.append(frame)
 
-    def _add_footstep(self, position: np.ndarray) -> None:
-        path = f"footsteps/{self._footsteps % self._max_footsteps}"
+    def _draw(self, frame: _Frame) -> None:
+        for path, pose in frame.poses.items():
+            self.vis[path].set_transform(pose)
+        for (path, name), (_, value) in frame.properties.items():
+            if name == "material.color":
+                self.vis[path].set_property("color", [*value, 1.0])
+            elif name == "scale":  # live, the scale travels in the transform matrix
+                self.vis[path].set_transform(frame.poses[path] @ np.diag([*value, 1.0]))
+            else:
+                self.vis[path].set_property(name, value)
+
+    def _add_footstep(self, position: np.ndarray) -> str:
+        """Draw a footprint at `position`; returns its path."""
+        path = f"footsteps/{self._footsteps}"
         self.vis[path].set_object(g.Box([digit.FOOT_SIZE_M[0], digit.FOOT_SIZE_M[1], 0.004]),
                                   g.MeshLambertMaterial(color=0x2255aa, opacity=0.6))
         self.vis[path].set_transform(tf.translation_matrix(position + [0, 0, 0.002]))
         self._footsteps += 1
+        return path
 
     def on_tick(self, controller=None, every: int = 4):
         """A `run_episode(on_tick=...)` callback drawing every `every`-th tick (with diagnostics)."""
         counter = iter(range(1 << 62))
 
         def callback(state: RobotState, _action) -> None:
+            diagnostics = getattr(controller, "last_diagnostics", None)
             if next(counter) % every == 0:
-                self.update(state, getattr(controller, "last_diagnostics", None))
+                self.update(state, diagnostics)
+            elif diagnostics is not None and diagnostics.touchdown and diagnostics.alip is not None:
+                self._touchdowns.append(diagnostics.stance_sole_world)  # drawn with the next frame
 
         return callback
 
     # --- recording -------------------------------------------------------------------------------
 
     def replay(self, fps: int = 30) -> None:
-        """Load the recorded frames as a meshcat animation (play it from the viewer's controls)."""
+        """Load the recorded frames as a meshcat animation (play it from the viewer's controls): the
+        robot, the camera's follow, the markers with their colour, the stance-to-CoM segment, and each
+        footprint appearing at its touchdown."""
         if not self._frames:
             return
         animation = meshcat.animation.Animation(default_framerate=fps)
-        start = self._frames[0][0]
-        for time_s, poses in self._frames:
-            with animation.at_frame(self.vis, int(round((time_s - start) * fps))) as frame:
-                for path, pose in poses.items():
-                    frame[path].set_transform(pose)
+        start = self._frames[0].time_s
+        with animation.at_frame(self.vis, 0) as first:
+            for k in range(self._footsteps):
+                first[f"footsteps/{k}"].set_property("visible", "boolean", False)
+        for frame in self._frames:
+            with animation.at_frame(self.vis, int(round((frame.time_s - start) * fps))) as keyframe:
+                for path, pose in frame.poses.items():
+                    keyframe[path].set_transform(pose)
+                for (path, name), (jstype, value) in frame.properties.items():
+                    keyframe[path].set_property(name, jstype, value)
         self.vis.set_animation(animation, play=True, repetitions=1)
 
     def export_html(self, path: str | Path) -> Path:

@@ -11,7 +11,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from mbc.assumptions import mar_weight
-from mbc.rollout import Episode
+from mbc.rollout import TRACKING_WINDOW_S, Episode
 from robots.digit.constants import TOTAL_MASS_KG
 
 
@@ -43,20 +43,28 @@ def phase_portrait(episode: Episode, path: Path) -> Path:
     return _save(fig, path)
 
 
+def moving_average(values: np.ndarray, window: int) -> np.ndarray:
+    """Centred mean over `window` samples; near the ends, over the samples there are (no zero padding,
+    so a constant signal stays constant to the last sample)."""
+    kernel = np.ones(window)
+    return np.convolve(values, kernel, mode="same") / np.convolve(np.ones(len(values)), kernel, mode="same")
+
+
 def velocity_tracking(episode: Episode, path: Path) -> Path:
-    """Commanded against actual heading-frame velocity and yaw rate."""
+    """Commanded (and followed, where clipped) against actual heading-frame velocity and yaw rate."""
     t = episode.arrays("time")
-    command = episode.arrays("command")
+    command, followed = episode.arrays("command"), episode.arrays("command_used")
     velocity = episode.heading_velocity()
     yaw = episode.yaw()
-    window = max(1, int(0.7 / max(np.median(np.diff(t)), 1e-6)))  # two steps
-    kernel = np.ones(window) / window
+    window = max(1, int(TRACKING_WINDOW_S / max(np.median(np.diff(t)), 1e-6)))  # one gait cycle
     fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True)
     actual = (velocity[:, 0], velocity[:, 1], np.gradient(yaw, t))
     for k, (label, unit) in enumerate((("vx", "m/s"), ("vy", "m/s"), ("yaw rate", "rad/s"))):
         axes[k].plot(t, actual[k], color="0.75", lw=0.8, label="actual")
-        axes[k].plot(t, np.convolve(actual[k], kernel, mode="same"), color="tab:blue", label="actual, 2-step mean")
-        axes[k].plot(t, command[:, k], color="tab:red", lw=2, label="command")
+        axes[k].plot(t, moving_average(actual[k], window), color="tab:blue", label="actual, gait-cycle mean")
+        axes[k].plot(t, followed[:, k], color="tab:red", lw=2, label="command followed")
+        if np.any(command[:, k] != followed[:, k]):
+            axes[k].plot(t, command[:, k], color="tab:red", lw=1, ls="--", label="command given (clipped)")
         axes[k].set(ylabel=f"{label} [{unit}]")
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set(xlabel="time [s]")
@@ -82,11 +90,11 @@ def foot_placements(episode: Episode, path: Path) -> Path:
         planned, actual, stance = np.array(planned), np.array(actual), np.array(stance)
         for side, colour in ((0, "tab:blue"), (1, "tab:orange")):
             keep = stance == side
-            ax.scatter(actual[keep, 0], actual[keep, 1], marker="s", color=colour, s=30,
-                       label=f"{'left' if side == 0 else 'right'} foot, actual")
-            ax.scatter(planned[keep, 0], planned[keep, 1], marker="x", color=colour, s=30, label="planned")
+            name = "left" if side == 0 else "right"
+            ax.scatter(actual[keep, 0], actual[keep, 1], marker="s", color=colour, s=30, label=f"{name} foot, actual")
+            ax.scatter(planned[keep, 0], planned[keep, 1], marker="x", color=colour, s=30, label=f"{name} foot, planned")
     ax.set(xlabel="x [m]", ylabel="y [m]", title="Foot placements", aspect="equal")
-    ax.legend(fontsize=8, ncols=3)
+    ax.legend(fontsize=8, ncols=5, loc="upper center", bbox_to_anchor=(0.5, -0.2))  # below the axes, off the data
     return _save(fig, path)
 
 
