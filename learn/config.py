@@ -125,7 +125,7 @@ class DaggerConfig:
     """Floor of beta."""
     gradient_steps: int = 300
     """Minibatch updates after each iteration's rollout."""
-    batch_size: int = 4096
+    batch_size: int = 2048
     """Minibatch size [samples]."""
     learning_rate: float = 1e-3
     """Adam step size at iteration 0."""

@@ -28,7 +28,6 @@ from mbc.controller import AlipControllerConfig
 from mbc.errors import ConfigError
 from mbc.geometry import rotate_inverse, yaw_of_quaternion
 from mbc.sim import DigitSim
-from mbc.timing import LEFT, RIGHT
 from mbc.types import RobotState
 from robots.digit import constants as digit
 
@@ -123,11 +122,9 @@ class WalkEnv:
         self._next_command_s = rng.uniform(*cfg.commands.resample_interval_s)
         pushes = cfg.pushes
         self._push_at_s = rng.uniform(1.0, 6.0) if rng.random() < pushes.probability else math.inf
-        contact = self.state.contact
-        stance = RIGHT if (contact[RIGHT] and not contact[LEFT]) else LEFT
-        self.builder.reset(self.state, stance)
-        if self.expert is not None:
-            self.expert.reset(self.state, stance)
+        self.builder.reset(self.state)
+        if self.expert is not None:  # the expert's clock starts as the observation's
+            self.expert.reset(self.state, self.builder.clock.stance, self.builder.clock.phase)
         self.observation = self.builder.observe(self.state, self.command)
         self._update_monitors()
         return self.observation

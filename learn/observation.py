@@ -16,7 +16,7 @@ import numpy as np
 
 from learn.action import ACTION_DIM
 from mbc.geometry import rotate_inverse
-from mbc.timing import GaitClock, TimingConfig
+from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig, is_standing
 from mbc.types import RobotState
 from robots.digit.constants import NUM_JOINTS
 
@@ -59,9 +59,15 @@ class ObservationBuilder:
         self.previous_action = np.zeros(ACTION_DIM)
         self._last_q, self._last_qd = np.zeros(NUM_JOINTS), np.zeros(NUM_JOINTS)
 
-    def reset(self, state: RobotState, stance: int, phase: float = 0.0) -> None:
-        """Start from `state`: history filled with its joints, no previous action."""
-        self.clock.reset(state.time, stance, phase)
+    def reset(self, state: RobotState) -> None:
+        """Start from `state`: history filled with its joints, no previous action; the clock as the
+        expert starts it from a stand (`timing.is_standing`: with the weight shift), or, moving on one
+        foot, at the start of that foot's stance."""
+        contact = np.asarray(state.contact, bool)
+        if is_standing(contact, state.base_linvel):
+            self.clock.start_standing(state.time, contact)
+        else:
+            self.clock.reset(state.time, LEFT if contact[LEFT] else RIGHT, 0.0)
         for _ in range(self.layout.history_length):
             self._q_history.append(state.q.copy())
             self._qd_history.append(state.qd.copy())

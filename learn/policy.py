@@ -19,7 +19,6 @@ from learn.action import ACTION_DIM, ActionSpace
 from learn.config import PolicyConfig
 from learn.observation import ObservationBuilder
 from mbc.errors import ConfigError
-from mbc.timing import LEFT, RIGHT
 from mbc.types import CONTROL_PERIOD_S, Command, CommandLimits, JointCommand, RobotState
 
 CHECKPOINT_FORMAT = "ppf-digit-policy-1"
@@ -139,8 +138,7 @@ class PolicyController:
         return self.action_space.kp, self.action_space.kd
 
     def reset(self, state: RobotState) -> None:
-        contact = np.asarray(state.contact, bool)
-        self.builder.reset(state, RIGHT if (contact[RIGHT] and not contact[LEFT]) else LEFT)
+        self.builder.reset(state)
         self._started = True
 
     def act(self, state: RobotState, command: Command) -> JointCommand:

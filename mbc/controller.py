@@ -38,8 +38,8 @@ from mbc.ik import IkConfig, IkResult, IkTargets, WholeBodyIK
 from mbc.passivity import PassivityConfig, PassivityQp, QpResult
 from mbc.pd import position_target_for_torque
 from mbc.pin_robot import PinRobot
-from mbc.swing import SwingConfig, estimate_phase, swing_reference
-from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig
+from mbc.swing import SwingConfig, estimate_phase, min_jerk, swing_reference
+from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig, is_standing
 from mbc.types import CONTROL_PERIOD_S, Command, CommandLimits, JointCommand, RobotState
 from robots.digit import constants as digit
 
@@ -165,6 +165,7 @@ class AlipController:
         self._end_velocity_per_mean = float(self.alip.end_velocity_for_mean(1.0, T))
         self._lateral_gait_momentum = float(self.alip.lateral_end_momentum(-1, cfg.step_width_m, T))
         self._last_q_des = digit.Q_STAND.copy()
+        self._shift_start_xy, self._shift_offset_xy = np.zeros(2), np.zeros(2)  # the weight shift's pelvis path
         self.fallback_count = 0
         self.last_diagnostics: ControllerDiagnostics | None = None
         self._started = False
@@ -194,20 +195,26 @@ class AlipController:
         """Start from `state`, standing or mid-gait.
 
         The stance foot is the only foot in contact, or, with both (or neither) down, the left one.
-        The phase is 0 in double support; in single support it is read off the swing foot's height
-        and vertical velocity on the swing profile (`swing.estimate_phase`), unless given.
+        A robot at rest or on both feet stands (`timing.is_standing`), and the gait starts with the
+        weight shift (`GaitClock.start_standing`); otherwise the phase is read off the swing foot's
+        height and vertical velocity on the swing profile (`swing.estimate_phase`). Explicit `stance`
+        and `phase` override both.
         """
         contact = np.asarray(state.contact, dtype=bool)
-        if stance is None:
-            stance = RIGHT if (contact[RIGHT] and not contact[LEFT]) else LEFT
-        if phase is None:
-            phase = 0.0
-            if contact.sum() == 1 and self._plausible_state(state):
-                self.robot.update(state)
-                swing = 1 - stance
-                height = self.robot.sole_position(swing)[2] - self.robot.sole_position(stance)[2]
-                phase = estimate_phase(height, self.robot.sole_velocity(swing)[2], self.config.swing)
-        self.clock.reset(state.time, stance, phase)
+        if stance is None and phase is None and is_standing(contact, state.base_linvel):
+            self.clock.start_standing(state.time, contact)
+        else:
+            stance = (RIGHT if (contact[RIGHT] and not contact[LEFT]) else LEFT) if stance is None else stance
+            if phase is None:
+                phase = 0.0
+                if contact.sum() == 1 and self._plausible_state(state):
+                    self.robot.update(state)
+                    swing = 1 - stance
+                    height = self.robot.sole_position(swing)[2] - self.robot.sole_position(stance)[2]
+                    phase = estimate_phase(height, self.robot.sole_velocity(swing)[2], self.config.swing)
+            self.clock.reset(state.time, stance, phase)
+        if self.clock.shifting_weight:
+            self._plan_weight_shift(state)
         q = np.asarray(state.q, dtype=float)
         self._last_q_des = np.where(np.isfinite(q), q, digit.Q_STAND)
         self.fallback_count = 0
@@ -240,8 +247,12 @@ class AlipController:
         heading = yaw_of_quaternion(state.base_quat)
         alip = alip_state(robot, stance_sole, heading)  # 2. ALIP state about the stance sole
         ground_normal = self._ground_normal(stance_rotation)
-        landing = self._landing_point(alip, command, stance, stance_sole, ground_normal, heading)  # 3. foot placement
-        targets = self._ik_targets(state, command, landing, stance_sole, stance_rotation, ground_normal)  # 4. swing
+        if clock.shifting_weight:  # before the first step: both feet down, the CoM rocked onto the gait's orbit
+            landing = robot.sole_position(clock.swing)
+            targets = self._weight_shift_targets(stance_sole, stance_rotation, ground_normal)
+        else:
+            landing = self._landing_point(alip, command, stance, stance_sole, ground_normal, heading)  # 3. placement
+            targets = self._ik_targets(state, command, landing, stance_sole, stance_rotation, ground_normal)  # 4. swing
         t_alip = time.perf_counter()
         ik = self.ik.solve(robot.q, targets)  # 5. whole-body IK
         t_ik = time.perf_counter()
@@ -288,11 +299,50 @@ class AlipController:
             com_z_world_m=stance_sole[2] + cfg.nominal_com_height_m,
             pelvis_xy=state.base_pos[:2], pelvis_xy_velocity=state.base_linvel[:2])
 
+    def _weight_shift_targets(self, stance_sole: np.ndarray, stance_rotation: np.ndarray,
+                              ground_normal: np.ndarray) -> IkTargets:
+        """IK targets of the weight shift: both feet where they are, the pelvis carried by
+        `_shift_offset_xy` along a minimum-jerk blend, arriving at rest when the first step lifts off."""
+        clock, shift_s = self.clock, self.config.timing.weight_shift_s
+        s = 1.0 + clock.phase * clock.step_duration_s / shift_s  # 0 at the start of the shift, 1 at lift-off
+        blend, blend_rate = min_jerk(s)
+        swing_sole, swing_rotation = self.robot.sole_pose(clock.swing)
+        return IkTargets(
+            stance=clock.stance, swing_position=swing_sole, swing_velocity=np.zeros(3),
+            swing_yaw=yaw_of_rotation(swing_rotation), ground_normal=ground_normal, pelvis_yaw=yaw_of_rotation(stance_rotation),
+            com_z_world_m=stance_sole[2] + self.config.nominal_com_height_m,
+            pelvis_xy=self._shift_start_xy + blend * self._shift_offset_xy,
+            pelvis_xy_velocity=blend_rate / shift_s * self._shift_offset_xy)
+
+    def _plan_weight_shift(self, state: RobotState) -> None:
+        r"""Where the weight shift carries the pelvis: the CoM over the stance sole sagittally, and
+        laterally to y_0 from it, the distance from which the ALIP, released at rest, reaches the gait's
+        step-end speed v = L_0 / (m z) in the first step's duration T_1:
+
+            y(t) = y_0 cosh(w t),  y'(T_1) = y_0 w sinh(w T_1) = v  =>  y_0 = v / (w sinh(w T_1))
+
+        (about 7.5 cm for Digit, against 13 cm when standing: without the shift the first step starts
+        on a fall that a full step lets grow to 0.6 m/s)."""
+        self._shift_start_xy = np.array(state.base_pos[:2], dtype=float)
+        self._shift_offset_xy = np.zeros(2)
+        if not self._plausible_state(state):
+            return
+        self.robot.update(state)
+        stance = self.clock.stance
+        heading = yaw_of_quaternion(state.base_quat)
+        alip = alip_state(self.robot, self.robot.sole_position(stance), heading)
+        omega, first_step_s = self.alip.omega, self.config.timing.first_step_duration_s
+        y_0 = self._lateral_gait_momentum / self.alip.mz / (omega * math.sinh(omega * first_step_s))
+        x, y = alip.x.tolist()  # CoM from the stance sole, heading frame
+        toward_stance = -math.copysign(1.0, y) if y else 0.0
+        lateral = toward_stance * max(abs(y) - y_0, 0.0)
+        self._shift_offset_xy = np.array(rotate_z(-x, lateral, heading))
+
     def _inverse_dynamics(self, state: RobotState, ik: IkResult) -> QpResult:
         """The passivity QP's joint torques tracking the IK; the swing foot counts as a contact in the
-        double support just after touchdown."""
+        weight shift and in the double support just after touchdown."""
         clock = self.clock
-        swing_loaded = bool(state.contact[clock.swing]) and clock.phase < 0.1
+        swing_loaded = clock.shifting_weight or (bool(state.contact[clock.swing]) and clock.phase < 0.1)
         contact = (True, swing_loaded) if clock.stance == LEFT else (swing_loaded, True)
         problem, sliding = self.qp.build(self.robot, contact, ik.q_des, ik.qd_des, self._zero_joint_acceleration)
         return self.qp.solve(self.robot, problem, sliding)

@@ -20,6 +20,13 @@ import numpy as np
 from mbc.errors import ConfigError
 
 LEFT, RIGHT = 0, 1
+STANDING_SPEED_MPS = 0.1
+"""A robot whose pelvis moves slower than this, or with both feet (or none) in contact, is standing [m/s]."""
+
+
+def is_standing(contact: np.ndarray, base_linvel: np.ndarray) -> bool:
+    """Whether a gait starting here starts from a stand (with the weight shift) rather than mid-step."""
+    return int(np.count_nonzero(contact)) != 1 or math.hypot(*np.asarray(base_linvel, float).tolist()) < STANDING_SPEED_MPS
 
 
 @dataclass(frozen=True)
@@ -34,12 +41,22 @@ class TimingConfig:
     """Phase at which the step ends even without swing-foot contact."""
     min_step_duration_s: float = 0.25
     """Fastest pace `retime` may set: the rest of a step takes at least (1 - s) times this [s]."""
+    weight_shift_s: float = 0.35
+    """Double support before the first step from a stand [s]: the clock starts at phase
+    -weight_shift_s / step_duration_s, and the controller shifts the CoM toward the stance foot."""
+    first_step_duration_s: float = 0.2
+    """Duration of the first step after the weight shift [s]: from rest, a short step reaches the
+    gait's lateral speed without overshooting it (see `AlipController`)."""
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.step_duration_s) and self.step_duration_s > 0):
             raise ConfigError(f"step_duration_s must be positive, got {self.step_duration_s}")
         if not 0 < self.min_step_duration_s <= self.step_duration_s:
             raise ConfigError(f"need 0 < min_step_duration_s <= step_duration_s, got {self.min_step_duration_s}")
+        if not (math.isfinite(self.weight_shift_s) and self.weight_shift_s >= 0):
+            raise ConfigError(f"weight_shift_s must be >= 0, got {self.weight_shift_s}")
+        if not (math.isfinite(self.first_step_duration_s) and self.first_step_duration_s > 0):
+            raise ConfigError(f"first_step_duration_s must be positive, got {self.first_step_duration_s}")
         if not 0 < self.early_touchdown_phase <= 1 <= self.late_touchdown_phase:
             raise ConfigError("need 0 < early_touchdown_phase <= 1 <= late_touchdown_phase, got "
                               f"{self.early_touchdown_phase}, {self.late_touchdown_phase}")
@@ -71,6 +88,17 @@ class GaitClock:
         self._anchor_phase, self._anchor_time_s = phase, time_s
         self.touchdowns = 0
 
+    def start_standing(self, time_s: float, contact: np.ndarray) -> None:
+        """Start from a stand: the stance foot is the only one in contact, else the left; the phase
+        starts at -weight_shift_s / step_duration_s (the weight shift, before the first step)."""
+        stance = RIGHT if (contact[RIGHT] and not contact[LEFT]) else LEFT
+        self.reset(time_s, stance, -self.config.weight_shift_s / self.config.step_duration_s)
+
+    @property
+    def shifting_weight(self) -> bool:
+        """In the double-support weight shift before the first step (phase < 0)."""
+        return self.phase < 0.0
+
     @property
     def swing(self) -> int:
         return 1 - self.stance
@@ -93,6 +121,10 @@ class GaitClock:
     def update(self, time_s: float, contact: np.ndarray) -> bool:
         """Advance to `time_s` with contact flags (left, right); True when a new step starts."""
         self.time_s = time_s
+        if self._anchor_phase < 0.0 <= self.phase:  # the weight shift ended: the first step, at its own pace
+            self._anchor_time_s -= self._anchor_phase * self.step_duration_s
+            self._anchor_phase = 0.0
+            self.step_duration_s = self.config.first_step_duration_s
         s = self.phase
         touched = bool(contact[self.swing]) and s >= self.config.early_touchdown_phase
         if touched or s >= self.config.late_touchdown_phase:

@@ -50,9 +50,9 @@ def test_a_step_beyond_reach_is_taken_sooner():
     """A sideways shove toward the swing foot (as after a push): the one-step law's step is wider than
     the reach, so it is clipped; with step-timing adaptation the touchdown also comes sooner."""
     sim = DigitSim(seed=2)
-    run_episode(sim, AlipController.for_digit(), Command(0.2, 0.0, 0.0), 1.6)
-    state = sim.state()
-    assert state.contact.sum() == 1
+    walker, state = AlipController.for_digit(), sim.reset()
+    while not (state.time > 1.5 and state.contact.sum() == 1 and 0.2 < walker.clock.phase < 0.4):  # early in a swing
+        state = sim.step(walker.act(state, Command(0.2, 0.0, 0.0)))
     swing_side = 1.0 if state.contact[1] else -1.0  # the swing foot is on the left (+1) or right
     state.base_linvel = state.base_linvel + np.array([0.0, 0.8 * swing_side, 0.0])
     outcome = {}
@@ -190,3 +190,29 @@ def test_a_programming_error_inside_the_tick_surfaces(controller, monkeypatch):
     with pytest.warns(RuntimeWarning, match="QP failed"):
         controller.act(state, Command(0.3))
     assert controller.last_diagnostics.fallback
+
+
+def test_a_standing_start_shifts_weight_then_steps_without_a_lurch():
+    """From a stand, the controller shifts the CoM toward the stance foot on both feet, then takes a
+    short first step: the sideways speed of the first 1.5 s stays at the walking gait's own sway, and
+    the first step lands beside the stance foot, not far behind and outside it."""
+    sim = DigitSim()
+    state = sim.reset()
+    controller = AlipController.for_digit()
+    controller.reset(state)
+    assert controller.clock.shifting_weight
+    lateral, first_step, lift_off = [], None, None
+    for _ in range(600):
+        action = controller.act(state, Command(0.4))
+        d = controller.last_diagnostics
+        if lift_off is None and not controller.clock.shifting_weight:
+            lift_off = state.time
+        if d.touchdown and first_step is None:
+            first_step = d.stance_sole_world  # the new stance sole
+        lateral.append(abs(state.base_linvel[1]))
+        state = sim.step(action)
+        assert not sim.fallen
+    assert lift_off == pytest.approx(controller.config.timing.weight_shift_s, abs=0.006)
+    start_sway, gait_sway = max(lateral[:300]), max(lateral[300:])
+    assert start_sway < 1.2 * gait_sway  # was 0.63 m/s against a 0.24 m/s sway without the shift
+    assert first_step[0] > -0.1 and abs(first_step[1]) < 0.15  # was (-0.24, -0.37): a catch step

@@ -67,21 +67,28 @@ def test_fit_decreases_the_loss_on_a_fixed_dataset_and_touches_only_the_actor(rn
 
 
 def test_labels_are_those_of_a_standalone_alip_controller():
-    """The expert is untouched by the learner: with the expert acting, the recorded labels equal the
-    actions of a separate AlipController driving a separate simulator from the same start. (Over the
-    first step only: the solvers differ between instances by 1e-13 to 1e-8, which contact amplifies
-    to millimetres after a touchdown; see docs/design.md.)"""
-    rollout = InProcessVecEnv(QUIET, 1).collect(RolloutRequest(None, steps=60, seed=7, beta=1.0))
-    assert rollout.label_valid.all() and rollout.expert_acted.all()
-    env = WalkEnv(QUIET, 0, with_expert=False)
-    env.reset(int(np.random.default_rng([7, 0]).integers(2**31)))
-    controller = AlipController.for_digit(output="pd")
-    controller.reset(env.state, stance=env.builder.clock.stance, phase=0.0)
-    for t in range(60):
-        action = env.action_space.from_command(controller.act(env.state, Command(*env.command)), env.state)
-        np.testing.assert_allclose(rollout.expert_actions[t, 0], action, atol=1e-5)
-        np.testing.assert_allclose(rollout.observations[t, 0], env.observation, atol=1e-5)
+    """The expert is untouched by the learner: the labels of the states a rollout visits (the expert
+    acting; 150 ticks: the weight shift and the first steps) equal the actions of a separate
+    AlipController fed the same states in the same order."""
+    env = WalkEnv(QUIET, 0)
+    env.reset(seed=7)
+    states, labels = [], []
+    for _ in range(150):
+        action, valid = env.label()
+        assert valid
+        states.append(env.state.copy())
+        labels.append(action)
         env.step(action)
+    replay = WalkEnv(QUIET, 0, with_expert=False)
+    replay.reset(seed=7)  # the same command schedule and clock start
+    controller = AlipController.for_digit(output="pd")
+    controller.reset(states[0], stance=replay.builder.clock.stance, phase=replay.builder.clock.phase)
+    for state, label in zip(states, labels):
+        action = env.action_space.from_command(controller.act(state, Command(*replay.command)), state)
+        np.testing.assert_allclose(label, action, atol=1e-6)
+    rollout = InProcessVecEnv(QUIET, 1).collect(RolloutRequest(None, steps=20, seed=7, beta=1.0))
+    assert rollout.label_valid.all() and rollout.expert_acted.all()
+    np.testing.assert_array_equal(rollout.actions, rollout.expert_actions)  # beta = 1: the labels were executed
 
 
 class _RecordingVecEnv(InProcessVecEnv):

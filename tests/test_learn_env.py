@@ -30,7 +30,7 @@ def test_observation_layout_places_each_part_where_it_says(rng):
     builder = ObservationBuilder(3)
     first = random_robot_state(rng)
     first.contact = np.array([True, True])
-    builder.reset(first, stance=0)
+    builder.reset(first)
     builder.observe(first, np.zeros(3))
     builder.record_action(np.arange(ACTION_DIM, dtype=float))
     second = first.copy()

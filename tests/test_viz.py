@@ -84,8 +84,11 @@ def test_live_viewer_and_exported_html_draw_the_robot_in_frame(chromium, empty_s
             walker = threading.Thread(target=run_episode, args=(sim, controller, Command(0.6, 0.0, 0.3), 5.0),
                                       kwargs={"on_tick": viewer.on_tick(controller)})
             walker.start()
-            live = scene_screenshot(chromium, viewer.url, tmp_path / "live.png", empty_scene)
+            walking = scene_screenshot(chromium, viewer.url, tmp_path / "walking.png", empty_scene)
             walker.join()
+        assert drawn_blob(walking, empty_scene)[0] > 1500  # the page draws while the robot walks
+        # after the walk the live page stands still, so it can be compared with itself without the robot
+        live = scene_screenshot(chromium, viewer.url, tmp_path / "live.png", empty_scene)
         html = viewer.export_html(tmp_path / "walk.html")
         exported = scene_screenshot(chromium, html.as_uri(), tmp_path / "exported.png", empty_scene)
         # the same pages without the robot: what remains is terrain and markers
