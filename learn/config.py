@@ -63,6 +63,35 @@ class PushSampling:
 
 
 @dataclass(frozen=True)
+class Randomization:
+    """Dynamics randomized at each episode start (`mbc.sim.DomainParams`) and observation noise.
+    Ranges are (low, high), uniform; the defaults are the nominal model (no randomization)."""
+
+    friction: tuple[float, float] = (1.0, 1.0)
+    """Sliding friction of feet and ground."""
+    mass_scale: tuple[float, float] = (1.0, 1.0)
+    """Scale of every link's mass and inertia, drawn per link."""
+    motor_strength: tuple[float, float] = (1.0, 1.0)
+    """Scale of each joint's torque, drawn per joint."""
+    delay_s: tuple[float, float] = (0.0, 0.0)
+    """Actuator delay within the control period [s]."""
+    observation_noise: float = 0.0
+    """Scale of uniform noise on the observation: times 0.05 rad/s (angular velocity), 0.03
+    (projected gravity), 0.01 rad (joint angles), 0.5 rad/s (joint rates), 0.1 m/s (base velocity)."""
+
+    def __post_init__(self) -> None:
+        for name in ("friction", "mass_scale", "motor_strength", "delay_s"):
+            _check_range(name, getattr(self, name))
+        _require(self.observation_noise >= 0, "observation_noise must be >= 0")
+
+
+def paper_randomization() -> Randomization:
+    """Ranges like the paper's training (friction, masses, motor strength, delay, observation noise)."""
+    return Randomization(friction=(0.6, 1.2), mass_scale=(0.9, 1.1), motor_strength=(0.9, 1.1), delay_s=(0.0, 0.002),
+                         observation_noise=1.0)
+
+
+@dataclass(frozen=True)
 class EnvConfig:
     """The Digit walking task."""
 
@@ -82,6 +111,9 @@ class EnvConfig:
     """Uniform noise on the initial horizontal base velocity [m/s]."""
     commands: CommandSampling = field(default_factory=CommandSampling)
     pushes: PushSampling = field(default_factory=PushSampling)
+    randomization: Randomization = field(default_factory=Randomization)
+    purerl_rewards: bool = False
+    """Add PureRL's reward terms (feet air time, second-order action smoothness) to the paper's table."""
     lin_vel_tracking_sigma: float = 0.25
     """delta_xy of the linear velocity tracking reward exp(-|v - v_cmd|^2 / delta) [(m/s)^2]."""
     ang_vel_tracking_sigma: float = 0.25

@@ -19,15 +19,23 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from learn.action import ActionSpace
-from learn.config import CommandSampling, EnvConfig
+from learn.action import ACTION_DIM, ActionSpace
+from learn.config import CommandSampling, EnvConfig, Randomization
 from learn.expert import Expert
 from learn.observation import ObservationBuilder
-from learn.rewards import RewardInputs, reward_terms, total_reward
+from learn.rewards import (
+    PAPER_WEIGHTS,
+    PURERL_WEIGHTS,
+    RewardInputs,
+    action_smoothness,
+    feet_air_time,
+    reward_terms,
+    total_reward,
+)
 from mbc.controller import AlipControllerConfig
 from mbc.errors import ConfigError
 from mbc.geometry import rotate_inverse, yaw_of_quaternion
-from mbc.sim import DigitSim
+from mbc.sim import DigitSim, DomainParams
 from mbc.types import RobotState
 from robots.digit import constants as digit
 
@@ -85,16 +93,16 @@ class WalkEnv:
 
     def __init__(self, config: EnvConfig, index: int = 0, with_expert: bool = True) -> None:
         self.config = config
-        name, params = parse_terrain(config.terrains[index % len(config.terrains)])
-        self.terrain_name = config.terrains[index % len(config.terrains)]
-        self.sim = DigitSim(name, seed=index, **params)
+        self.index = index
+        self.terrain = ""
+        self.set_terrain(config.terrains[index % len(config.terrains)])
         self.action_space = ActionSpace(self.sim.kp, self.sim.kd)
         self.expert = Expert(self.action_space) if with_expert else None
         self.builder = ObservationBuilder(config.history_length)
         self.rng = np.random.default_rng(index)
-        self._feet = [self.sim.model.body(f).id for f in digit.FOOT_LINKS]
-        self._foot_boxes = [self.sim.model.geom(f"{f}_box").id for f in digit.FOOT_LINKS]
-        self._pelvis = self.sim.model.body(digit.BASE_LINK).id
+        self.forward_command_max_mps = config.commands.vx_mps[1]
+        """Upper end of the forward commands drawn (the velocity curriculum widens it)."""
+        self._noise_scale = self._observation_noise_scale()
         self._velocity = np.zeros(6)
         self.state: RobotState | None = None
         self.command = np.zeros(3)
@@ -106,28 +114,72 @@ class WalkEnv:
     def observation_size(self) -> int:
         return self.builder.layout.size
 
+    def set_terrain(self, spec: str) -> None:
+        """Rebuild the simulator on terrain `spec` ('name' or 'name:key=value,...'); about 30 ms."""
+        if spec == self.terrain:
+            return
+        name, params = parse_terrain(spec)
+        self.sim = DigitSim(name, seed=self.index, **params)
+        self.terrain = spec
+        self._feet = [self.sim.model.body(f).id for f in digit.FOOT_LINKS]
+        self._foot_boxes = [self.sim.model.geom(f"{f}_box").id for f in digit.FOOT_LINKS]
+        self._pelvis = self.sim.model.body(digit.BASE_LINK).id
+
     # --- episode --------------------------------------------------------------------------------
 
     def reset(self, seed: int) -> np.ndarray:
         """Start an episode from a perturbed stand; returns the first observation."""
         cfg = self.config
         self.rng = rng = np.random.default_rng(seed)
+        if self.config.randomization != Randomization():
+            self._randomize_dynamics(rng)  # before the reset: MuJoCo's mj_setConst overwrites the state
         state = self.sim.reset()
         state.q = state.q + rng.uniform(-cfg.init_joint_noise_rad, cfg.init_joint_noise_rad, digit.NUM_JOINTS)
         state.base_linvel = np.r_[rng.uniform(-cfg.init_velocity_noise_mps, cfg.init_velocity_noise_mps, 2), 0.0]
         self.sim.set_state(state)
         self.state = self.sim.state()
         self.episode_start_s = self.state.time
-        self.command = sample_command(rng, cfg.commands)
+        self.episode_start_xy = self.state.base_pos[:2].copy()
+        self.command = self._sample_command()
         self._next_command_s = rng.uniform(*cfg.commands.resample_interval_s)
+        self._air_time_s, self._in_contact = np.zeros(2), self.state.contact.copy()
+        self._earlier_actions = [np.zeros(ACTION_DIM), np.zeros(ACTION_DIM)]
         pushes = cfg.pushes
         self._push_at_s = rng.uniform(1.0, 6.0) if rng.random() < pushes.probability else math.inf
         self.builder.reset(self.state)
         if self.expert is not None:  # the expert's clock starts as the observation's
             self.expert.reset(self.state, self.builder.clock.stance, self.builder.clock.phase)
-        self.observation = self.builder.observe(self.state, self.command)
+        self.observation = self._observe()
         self._update_monitors()
         return self.observation
+
+    def _sample_command(self) -> np.ndarray:
+        command = sample_command(self.rng, self.config.commands)
+        if command[0] > 0:  # the forward range up to the curriculum's current end
+            low, high = self.config.commands.vx_mps
+            command[0] = low + (command[0] - low) * (self.forward_command_max_mps - low) / (high - low)
+        return command
+
+    def _randomize_dynamics(self, rng: np.random.Generator) -> None:
+        r = self.config.randomization
+        nbody = self.sim.model.nbody
+        self.sim.set_domain(DomainParams(
+            friction=rng.uniform(*r.friction), mass_scale=rng.uniform(*r.mass_scale, nbody),
+            motor_strength=rng.uniform(*r.motor_strength, digit.NUM_JOINTS), delay_s=rng.uniform(*r.delay_s)))
+
+    def _observation_noise_scale(self) -> np.ndarray:
+        """Per-entry scale of the uniform observation noise (`Randomization.observation_noise`)."""
+        layout, scale = self.builder.layout, np.zeros(self.builder.layout.size)
+        for part, size in (("base_linvel", 0.1), ("base_angvel", 0.05), ("projected_gravity", 0.03), ("q", 0.01),
+                           ("qd", 0.5), ("q_history", 0.01), ("qd_history", 0.5)):
+            scale[layout.slice(part)] = size
+        return self.config.randomization.observation_noise * scale
+
+    def _observe(self) -> np.ndarray:
+        observation = self.builder.observe(self.state, self.command)
+        if self.config.randomization.observation_noise:
+            observation = observation + self._noise_scale * self.rng.uniform(-1.0, 1.0, observation.shape)
+        return observation
 
     @property
     def episode_time_s(self) -> float:
@@ -159,13 +211,27 @@ class WalkEnv:
             command=command, tau=state.tau), cfg.lin_vel_tracking_sigma, cfg.ang_vel_tracking_sigma)
         terminated = self.sim.fallen or tilt_of(state.base_quat) > cfg.tilt_limit_rad
         truncated = not terminated and self.episode_time_s >= cfg.episode_length_s - 1e-9
+        if cfg.purerl_rewards:
+            terms |= self._purerl_terms(state, action)
         if self.episode_time_s >= self._next_command_s:
-            self.command = sample_command(self.rng, cfg.commands)
+            self.command = self._sample_command()
             self._next_command_s += self.rng.uniform(*cfg.commands.resample_interval_s)
         self.builder.record_action(action)
-        self.observation = self.builder.observe(state, self.command)
+        self.observation = self._observe()
         self._update_monitors()
-        return Step(self.observation, total_reward(terms), terminated, truncated, terms)
+        weights = PURERL_WEIGHTS if cfg.purerl_rewards else PAPER_WEIGHTS
+        return Step(self.observation, total_reward(terms, weights), terminated, truncated, terms)
+
+    def _purerl_terms(self, state: RobotState, action: np.ndarray) -> dict[str, float]:
+        """Feet air time (at touchdowns) and second-order action smoothness; updates their memory."""
+        contact = state.contact
+        touchdown = contact & ~self._in_contact
+        air_time = feet_air_time(self._air_time_s + self.sim.dt, touchdown)
+        self._air_time_s = np.where(contact, 0.0, self._air_time_s + self.sim.dt)
+        self._in_contact = contact.copy()
+        smoothness = action_smoothness(action, *self._earlier_actions)
+        self._earlier_actions = [np.asarray(action, float).copy(), self._earlier_actions[0]]
+        return {"feet_air_time": air_time, "action_smoothness": smoothness}
 
     # --- privileged -------------------------------------------------------------------------------
 

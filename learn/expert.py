@@ -28,6 +28,10 @@ class Expert:
         """Start at `state` with the environment's gait clock (stance side, phase), so both clocks agree."""
         self.controller.reset(state, stance=stance, phase=phase)
 
+    def follow(self, state: RobotState) -> None:
+        """See `state` without labelling it (its gait clock advances): `AlipController.follow`."""
+        self.controller.follow(state)
+
     def label(self, state: RobotState, command: np.ndarray) -> tuple[np.ndarray, bool]:
         """(24,) the expert's action at `state`, and whether it is a label (False on a fallback tick)."""
         with warnings.catch_warnings():  # a fallback is reported by the flag, not a warning per env

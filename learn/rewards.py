@@ -6,6 +6,8 @@
     base_motion        |w_xy|^2                                 weight -0.6
 
 Velocities are in the heading frame (linear) and the base frame (angular), as the command is.
+PureRL adds two terms (`PURERL_WEIGHTS`): feet air time, rewarded at each touchdown as the swing's
+air time beyond 0.3 s (legged_gym's form), and second-order action smoothness |a_t - 2a_{t-1} + a_{t-2}|^2.
 """
 
 from __future__ import annotations
@@ -15,6 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 PAPER_WEIGHTS = {"lin_vel_tracking": 1.2, "ang_vel_tracking": 1.1, "torque": -4e-6, "base_motion": -0.6}
+PURERL_WEIGHTS = PAPER_WEIGHTS | {"feet_air_time": 1.0, "action_smoothness": -0.01}
+AIR_TIME_TARGET_S = 0.3
 
 
 def lin_vel_tracking(v_xy_heading: np.ndarray, v_xy_command: np.ndarray, sigma: float) -> float:
@@ -37,6 +41,17 @@ def torque(tau: np.ndarray) -> float:
 def base_motion(angvel_base: np.ndarray) -> float:
     """|w_xy|^2: roll and pitch rates of the base [(rad/s)^2]."""
     return float(angvel_base[0] ** 2 + angvel_base[1] ** 2)
+
+
+def feet_air_time(air_time_s: np.ndarray, touchdown: np.ndarray, target_s: float = AIR_TIME_TARGET_S) -> float:
+    """sum over feet touching down this tick of (air time - target) [s]."""
+    return float(np.sum((np.asarray(air_time_s) - target_s) * np.asarray(touchdown, bool)))
+
+
+def action_smoothness(action: np.ndarray, previous: np.ndarray, before_previous: np.ndarray) -> float:
+    """|a_t - 2 a_{t-1} + a_{t-2}|^2."""
+    second = np.asarray(action) - 2.0 * np.asarray(previous) + np.asarray(before_previous)
+    return float(second @ second)
 
 
 @dataclass(frozen=True)

@@ -1,15 +1,18 @@
 """Parallel environments: groups of `WalkEnv`s, each group in a worker process with the policy
 running batched over its environments.
 
-A rollout is requested as a `RolloutRequest` (a policy snapshot, a number of ticks, a seed, the DAgger
-mixing probability) and comes back as one `Rollout` per group. The policy does not change within a
-rollout, so each worker runs it on its own copy (one batched forward per tick over its environments)
-and the workers exchange nothing per tick: a rollout costs two messages per worker, not two per tick.
-`VecEnv` is the interface the algorithms see; `InProcessVecEnv` and `ProcessVecEnv` implement it, and
-a distributed engine (Ray actors each holding an `EnvGroup`) would implement the same two methods.
+A rollout is requested as a `RolloutRequest` (a policy snapshot, a number of ticks, a seed, how the
+expert labels and mixes in) and comes back as one `Rollout` per group. The policy does not change
+within a rollout, so each worker runs it on its own copy (one batched forward per tick over its
+environments) and the workers exchange nothing per tick: a rollout costs two messages per worker,
+not two per tick. `VecEnv` is the interface the algorithms see; `InProcessVecEnv` and
+`ProcessVecEnv` implement it, and a distributed engine (Ray actors each holding an `EnvGroup`) would
+implement the same two methods.
 
-Every environment resets at the start of each rollout, seeded from (request seed, environment index),
-so a rollout depends only on the request: a resumed run reproduces it exactly.
+DAgger's rollouts start fresh episodes, seeded from (request seed, environment index), so a rollout
+depends only on its request. PPO's continue the episodes of the previous rollout (`continue_episodes`),
+sample the Gaussian policy, and return log-probabilities and values; the expert labels every
+`label_every`-th tick of each environment and only follows the others (its clock still sees every state).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import torch
 
 from learn.action import ACTION_DIM
 from learn.config import EnvConfig
+from learn.curriculum import TerrainCurriculum
 from learn.env import MONITOR_NAMES, WalkEnv
 from learn.policy import ActorCritic
 
@@ -32,20 +36,28 @@ TIMING_PARTS = ("expert", "physics", "policy", "total")
 
 @dataclass(frozen=True)
 class RolloutRequest:
-    """What to run: `steps` ticks per environment from fresh episodes."""
+    """What to run: `steps` ticks per environment."""
 
     policy: dict | None
     """An `ActorCritic.checkpoint()` dict, or None to let the expert act alone (then beta must be 1)."""
     steps: int
     seed: int
     beta: float = 0.0
-    """Probability, per tick and environment, that the expert's action is executed instead of the policy's."""
-    label: bool = True
-    """Ask the expert for a label at every tick (it then also sees every state, in order)."""
+    """Probability, per labelled tick and environment, that the expert's action is executed instead of the policy's."""
+    label_every: int = 1
+    """Ask the expert for a label every this many ticks of each environment (0: never)."""
+    stochastic: bool = False
+    """Sample the Gaussian policy (PPO) instead of acting with its mean (DAgger)."""
+    continue_episodes: bool = False
+    """Continue the environments' episodes from the previous rollout instead of starting fresh ones."""
+    forward_command_max_mps: float | None = None
+    """Upper end of the forward commands drawn (velocity curriculum); None: the config's."""
 
     def __post_init__(self) -> None:
-        if self.policy is None and not (self.label and self.beta == 1.0):
-            raise ValueError("without a policy the expert must act: label=True and beta=1")
+        if self.policy is None and not (self.label_every == 1 and self.beta == 1.0):
+            raise ValueError("without a policy the expert must act: label_every=1 and beta=1")
+        if self.label_every < 0 or self.steps <= 0:
+            raise ValueError("label_every must be >= 0 and steps positive")
 
 
 @dataclass
@@ -55,7 +67,7 @@ class Rollout:
     observations: np.ndarray
     expert_actions: np.ndarray
     label_valid: np.ndarray
-    """The expert gave a label (no fallback)."""
+    """The expert was asked and gave a label (no fallback)."""
     expert_acted: np.ndarray
     """The expert's action was executed."""
     actions: np.ndarray
@@ -65,6 +77,16 @@ class Rollout:
     truncated: np.ndarray
     monitors: np.ndarray
     """Model-assumption monitors of each observed state (`learn.env.MONITOR_NAMES`)."""
+    log_probs: np.ndarray
+    """log pi(action | observation) of the executed action (stochastic rollouts; else 0)."""
+    values: np.ndarray
+    """V(observation) (stochastic rollouts; else 0)."""
+    last_values: np.ndarray
+    """(n_envs,) V of the observation after the last tick."""
+    episodes: list[dict] = field(default_factory=list)
+    """One record per episode that ended: return, length_s, distance_m, fell, terrain."""
+    reward_terms: dict[str, float] = field(default_factory=dict)
+    """Mean of each unweighted reward term per tick."""
     timing_s: dict[str, float] = field(default_factory=dict)
     """Wall time spent in the expert, the physics and reward, the policy, and in total [s]."""
 
@@ -74,20 +96,46 @@ class Rollout:
 
     @staticmethod
     def concatenate(rollouts: list[Rollout]) -> Rollout:
-        """Join groups along the environment axis (timings summed)."""
-        arrays = {name: np.concatenate([getattr(r, name) for r in rollouts], axis=1)
-                  for name in Rollout.__dataclass_fields__ if name != "timing_s"}
+        """Join groups along the environment axis (timings summed, episodes listed)."""
+        arrays = {name: np.concatenate([getattr(r, name) for r in rollouts], axis=-1 if name == "last_values" else 1)
+                  for name in Rollout.__dataclass_fields__ if name not in ("timing_s", "episodes", "reward_terms")}
         timing = {part: sum(r.timing_s.get(part, 0.0) for r in rollouts) for part in TIMING_PARTS}
-        return Rollout(**arrays, timing_s=timing)
+        terms = {name: float(np.mean([r.reward_terms[name] for r in rollouts])) for name in rollouts[0].reward_terms}
+        return Rollout(**arrays, episodes=[e for r in rollouts for e in r.episodes], reward_terms=terms, timing_s=timing)
 
 
 class EnvGroup:
     """Environments of one process, stepped together with one batched policy forward per tick."""
 
-    def __init__(self, config: EnvConfig, indices: list[int], with_expert: bool = True) -> None:
+    def __init__(self, config: EnvConfig, indices: list[int], with_expert: bool = True,
+                 curriculum: TerrainCurriculum | None = None) -> None:
         self.indices = indices
         self.envs = [WalkEnv(config, index, with_expert) for index in indices]
+        self.curriculum = curriculum
+        self.levels = [0] * len(indices)
+        self._rngs: list[np.random.Generator] | None = None
+        self._ticks = [0] * len(indices)
         torch.set_num_threads(1)  # parallelism comes from the workers
+        if curriculum is not None:
+            for k, env in enumerate(self.envs):
+                env.set_terrain(curriculum.spec(self._kind(k), 0))
+
+    def _kind(self, k: int) -> str:
+        return self.curriculum.kinds[self.indices[k] % len(self.curriculum.kinds)]
+
+    def _start(self, k: int) -> None:
+        self.envs[k].reset(int(self._rngs[k].integers(2**31)))
+
+    def _end_episode(self, k: int, episode_return: float, fell: bool) -> dict:
+        env = self.envs[k]
+        distance = float(np.linalg.norm(env.state.base_pos[:2] - env.episode_start_xy))
+        record = {"return": episode_return, "length_s": env.episode_time_s, "distance_m": distance, "fell": fell,
+                  "terrain": env.terrain, "level": self.levels[k]}
+        if self.curriculum is not None:
+            self.levels[k] = self.curriculum.next_level(self.levels[k], distance, fell)
+            env.set_terrain(self.curriculum.spec(self._kind(k), self.levels[k]))
+        self._start(k)
+        return record
 
     def run(self, request: RolloutRequest) -> Rollout:
         n, T, envs = len(self.envs), request.steps, self.envs
@@ -96,12 +144,20 @@ class EnvGroup:
                    "expert_actions": np.zeros((T, n, ACTION_DIM), np.float32), "label_valid": np.zeros((T, n), bool),
                    "expert_acted": np.zeros((T, n), bool), "actions": np.zeros((T, n, ACTION_DIM), np.float32),
                    "rewards": np.zeros((T, n), np.float32), "terminated": np.zeros((T, n), bool),
-                   "truncated": np.zeros((T, n), bool), "monitors": np.zeros((T, n, len(MONITOR_NAMES)), np.float32)}
-        rngs = [np.random.default_rng([request.seed, index]) for index in self.indices]
-        for env, rng in zip(envs, rngs):
-            env.reset(int(rng.integers(2**31)))
+                   "truncated": np.zeros((T, n), bool), "monitors": np.zeros((T, n, len(MONITOR_NAMES)), np.float32),
+                   "log_probs": np.zeros((T, n), np.float32), "values": np.zeros((T, n), np.float32)}
+        for env in envs:
+            if request.forward_command_max_mps is not None:
+                env.forward_command_max_mps = request.forward_command_max_mps
+        if not (request.continue_episodes and self._rngs is not None):
+            self._rngs = [np.random.default_rng([request.seed, index]) for index in self.indices]
+            self._returns = [0.0] * n
+            for k in range(n):
+                self._start(k)
+        generator = torch.Generator().manual_seed(int(self._rngs[0].integers(2**31)))
         model = ActorCritic.from_checkpoint(request.policy).eval() if request.policy is not None else None
         timing = dict.fromkeys(TIMING_PARTS, 0.0)
+        episodes, term_sums = [], {}
         start = time.perf_counter()
         for t in range(T):
             observations = np.stack([env.observation for env in envs])
@@ -109,27 +165,54 @@ class EnvGroup:
             buffers["monitors"][t] = np.stack([env.monitors for env in envs])
             tick = time.perf_counter()
             if model is not None:
-                with torch.inference_mode():
-                    policy_actions = model.action_mean(torch.as_tensor(observations, dtype=torch.float32)).numpy()
+                policy_actions = self._policy_actions(model, observations, request.stochastic, generator, buffers, t)
             timing["policy"] += time.perf_counter() - tick
-            for i, (env, rng) in enumerate(zip(envs, rngs)):
+            for k, (env, rng) in enumerate(zip(envs, self._rngs)):
                 tick = time.perf_counter()
-                if request.label:
+                labelling = request.label_every > 0 and self._ticks[k] % request.label_every == 0
+                self._ticks[k] += 1
+                if labelling:
                     expert_action, valid = env.label()
-                    buffers["expert_actions"][t, i], buffers["label_valid"][t, i] = expert_action, valid
+                    buffers["expert_actions"][t, k], buffers["label_valid"][t, k] = expert_action, valid
+                elif env.expert is not None:
+                    env.expert.follow(env.state)
                 middle = time.perf_counter()
-                use_expert = request.label and rng.random() < request.beta
-                action = expert_action if use_expert else policy_actions[i].astype(float)
+                use_expert = labelling and rng.random() < request.beta
+                action = expert_action if use_expert else policy_actions[k].astype(float)
                 step = env.step(action)
-                buffers["expert_acted"][t, i], buffers["actions"][t, i] = use_expert, action
-                buffers["rewards"][t, i] = step.reward
-                buffers["terminated"][t, i], buffers["truncated"][t, i] = step.terminated, step.truncated
+                buffers["expert_acted"][t, k], buffers["actions"][t, k] = use_expert, action
+                buffers["rewards"][t, k] = step.reward
+                buffers["terminated"][t, k], buffers["truncated"][t, k] = step.terminated, step.truncated
+                self._returns[k] += step.reward
+                for name, value in step.reward_terms.items():
+                    term_sums[name] = term_sums.get(name, 0.0) + value
                 if step.terminated or step.truncated:
-                    env.reset(int(rng.integers(2**31)))
+                    episodes.append(self._end_episode(k, self._returns[k], step.terminated))
+                    self._returns[k] = 0.0
                 timing["expert"] += middle - tick
                 timing["physics"] += time.perf_counter() - middle
+        last_values = np.zeros(n, np.float32)
+        if model is not None and request.stochastic:
+            with torch.inference_mode():
+                last = torch.as_tensor(np.stack([env.observation for env in envs]), dtype=torch.float32)
+                last_values = model.value(last).numpy()
         timing["total"] = time.perf_counter() - start
-        return Rollout(**buffers, timing_s=timing)
+        terms = {name: total / (T * n) for name, total in term_sums.items()}
+        return Rollout(**buffers, last_values=last_values, episodes=episodes, reward_terms=terms, timing_s=timing)
+
+    @staticmethod
+    def _policy_actions(model: ActorCritic, observations: np.ndarray, stochastic: bool, generator: torch.Generator,
+                        buffers: dict, t: int) -> np.ndarray:
+        """The policy's actions for a batch of observations (mean, or sampled with log-probs and values)."""
+        with torch.inference_mode():
+            obs = torch.as_tensor(observations, dtype=torch.float32)
+            if not stochastic:
+                return model.action_mean(obs).numpy()
+            distribution = model.distribution(obs)
+            actions = distribution.mean + distribution.stddev * torch.randn(distribution.mean.shape, generator=generator)
+            buffers["log_probs"][t] = distribution.log_prob(actions).sum(-1).numpy()
+            buffers["values"][t] = model.value(obs).numpy()
+            return actions.numpy()
 
 
 class VecEnv(ABC):
@@ -156,8 +239,9 @@ class VecEnv(ABC):
 class InProcessVecEnv(VecEnv):
     """All environments in this process (tests, debugging, one core)."""
 
-    def __init__(self, config: EnvConfig, num_envs: int, with_expert: bool = True) -> None:
-        self.group = EnvGroup(config, list(range(num_envs)), with_expert)
+    def __init__(self, config: EnvConfig, num_envs: int, with_expert: bool = True,
+                 curriculum: TerrainCurriculum | None = None) -> None:
+        self.group = EnvGroup(config, list(range(num_envs)), with_expert, curriculum)
         self.num_envs, self.observation_size = num_envs, self.group.envs[0].observation_size
 
     def collect(self, request: RolloutRequest) -> Rollout:
@@ -167,8 +251,9 @@ class InProcessVecEnv(VecEnv):
         """Nothing to release: the environments live in this process."""
 
 
-def _worker(connection, config: EnvConfig, indices: list[int], with_expert: bool) -> None:
-    group = EnvGroup(config, indices, with_expert)
+def _worker(connection, config: EnvConfig, indices: list[int], with_expert: bool,
+            curriculum: TerrainCurriculum | None) -> None:
+    group = EnvGroup(config, indices, with_expert, curriculum)
     connection.send(group.envs[0].observation_size)
     while True:
         message = connection.recv()
@@ -181,13 +266,15 @@ def _worker(connection, config: EnvConfig, indices: list[int], with_expert: bool
 class ProcessVecEnv(VecEnv):
     """`workers` processes with `envs_per_worker` environments each."""
 
-    def __init__(self, config: EnvConfig, workers: int, envs_per_worker: int, with_expert: bool = True) -> None:
+    def __init__(self, config: EnvConfig, workers: int, envs_per_worker: int, with_expert: bool = True,
+                 curriculum: TerrainCurriculum | None = None) -> None:
         context = multiprocessing.get_context("spawn")
         self._connections, self._processes = [], []
         for w in range(workers):
             parent, child = context.Pipe()
             indices = list(range(w * envs_per_worker, (w + 1) * envs_per_worker))
-            process = context.Process(target=_worker, args=(child, config, indices, with_expert), daemon=True)
+            process = context.Process(target=_worker, args=(child, config, indices, with_expert, curriculum),
+                                      daemon=True)
             process.start()
             self._connections.append(parent)
             self._processes.append(process)
@@ -211,8 +298,9 @@ class ProcessVecEnv(VecEnv):
         self._connections, self._processes = [], []
 
 
-def make_vec_env(config: EnvConfig, workers: int, envs_per_worker: int, with_expert: bool = True) -> VecEnv:
+def make_vec_env(config: EnvConfig, workers: int, envs_per_worker: int, with_expert: bool = True,
+                 curriculum: TerrainCurriculum | None = None) -> VecEnv:
     """`ProcessVecEnv` with `workers` > 0, else all environments in this process."""
     if workers <= 0:
-        return InProcessVecEnv(config, envs_per_worker, with_expert)
-    return ProcessVecEnv(config, workers, envs_per_worker, with_expert)
+        return InProcessVecEnv(config, envs_per_worker, with_expert, curriculum)
+    return ProcessVecEnv(config, workers, envs_per_worker, with_expert, curriculum)

@@ -220,6 +220,14 @@ class AlipController:
         self.fallback_count = 0
         self._started = True
 
+    def follow(self, state: RobotState) -> None:
+        """Advance the gait clock on a tick the controller is not asked to act on (a labeller that
+        labels every k-th state still sees every touchdown); the rest of its state is refreshed by
+        the next `act`."""
+        if not self._started:
+            self.reset(state)
+        self.clock.update(state.time, state.contact)
+
     def act(self, state: RobotState, command: Command) -> JointCommand:
         """The joint command for this tick (never raises for solver failures or a bad state)."""
         if not isinstance(command, Command):

@@ -36,7 +36,8 @@ def _rollout(label_valid: np.ndarray, terminated: np.ndarray) -> Rollout:
     zeros = np.zeros((steps, envs))
     return Rollout(observations=np.zeros((steps, envs, 3)), expert_actions=np.zeros((steps, envs, 2)),
                    label_valid=label_valid, expert_acted=zeros.astype(bool), actions=np.zeros((steps, envs, 2)),
-                   rewards=zeros, terminated=terminated, truncated=zeros.astype(bool), monitors=np.zeros((steps, envs, 3)))
+                   rewards=zeros, terminated=terminated, truncated=zeros.astype(bool), monitors=np.zeros((steps, envs, 3)),
+                   log_probs=zeros, values=zeros, last_values=np.zeros(envs))
 
 
 def test_usable_labels_drop_fallbacks_and_the_ticks_before_a_termination():

@@ -1,0 +1,73 @@
+"""Curricula of the fine-tuning: terrain difficulty per environment, and the forward-velocity range.
+
+Terrains: each environment keeps a kind (flat, uphill, downhill, uneven, stairs; environment i takes
+kind i mod n) and a level; an episode that walks `promote_m` without falling moves it one level up,
+one that falls before walking `demote_m` one level down. Level k of L has difficulty d = k / (L - 1):
+
+    uphill    slope  +(4 + 18 d) deg       downhill  slope  -(3 + 13 d) deg
+    uneven    amplitude 1 + 4 d cm         stairs    risers 2 + 10 d cm
+
+Velocity: the upper end of the forward command grows by `step_mps` whenever the mean linear-velocity
+tracking reward of an iteration exceeds `threshold`, up to `max_mps`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mbc.errors import ConfigError
+
+TERRAIN_KINDS = ("flat", "uphill", "downhill", "uneven", "stairs")
+
+
+def terrain_spec(kind: str, difficulty: float) -> str:
+    """The terrain string (`learn.env.parse_terrain`) of `kind` at difficulty in [0, 1]."""
+    d = min(max(difficulty, 0.0), 1.0)
+    specs = {"flat": "flat", "uphill": f"slope:angle_deg={4 + 18 * d:.2f}", "downhill": f"slope:angle_deg={-(3 + 13 * d):.2f}",
+             "uneven": f"uneven:amplitude={0.01 + 0.04 * d:.4f}", "stairs": f"stairs:step_height={0.02 + 0.10 * d:.4f}"}
+    if kind not in specs:
+        raise ConfigError(f"unknown terrain kind {kind!r}; valid: {list(specs)}")
+    return specs[kind]
+
+
+@dataclass(frozen=True)
+class TerrainCurriculum:
+    """Terrain kinds and levels; promotion and demotion by distance walked."""
+
+    kinds: tuple[str, ...] = TERRAIN_KINDS
+    levels: int = 10
+    promote_m: float = 4.0
+    """An episode that walks this far without falling promotes its environment [m]."""
+    demote_m: float = 1.5
+    """An episode that falls before walking this far demotes its environment [m]."""
+
+    def __post_init__(self) -> None:
+        for kind in self.kinds:
+            terrain_spec(kind, 0.0)
+        if self.levels < 1 or self.promote_m <= self.demote_m:
+            raise ConfigError("need levels >= 1 and promote_m > demote_m")
+
+    def spec(self, kind: str, level: int) -> str:
+        return terrain_spec(kind, level / max(self.levels - 1, 1))
+
+    def next_level(self, level: int, distance_m: float, fell: bool) -> int:
+        """The level after an episode that walked `distance_m` and fell or not."""
+        if not fell and distance_m >= self.promote_m:
+            return min(level + 1, self.levels - 1)
+        if fell and distance_m < self.demote_m:
+            return max(level - 1, 0)
+        return level
+
+
+@dataclass(frozen=True)
+class VelocityCurriculum:
+    """The forward command's upper end, widened while tracking is good."""
+
+    start_mps: float = 1.0
+    max_mps: float = 1.5
+    step_mps: float = 0.1
+    threshold: float = 0.7
+    """Mean lin_vel_tracking reward (in [0, 1]) above which the range widens."""
+
+    def next_max(self, current_mps: float, tracking: float) -> float:
+        return min(current_mps + self.step_mps, self.max_mps) if tracking > self.threshold else current_mps

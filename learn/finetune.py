@@ -1,0 +1,162 @@
+"""`FinetuneRunner`: PPO fine-tuning of a distilled policy (PPF, FullReg, IFM) or of a fresh one
+(PureRL): rollouts that continue their episodes, the update, curricula, logging and checkpoints.
+
+Each iteration: every environment runs `steps_per_env` ticks with the Gaussian policy (the expert
+labelling every k-th tick for PPF and FullReg), PPO updates on them (the critic alone for the first
+iterations), the velocity curriculum widens the forward commands while they are tracked, and the
+training state is written atomically. A run killed at any moment resumes from its last checkpoint
+(`resume=True`) with the same schedule; the episodes in flight at the kill are started again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from learn.action import ActionSpace
+from learn.config import EnvConfig, PolicyConfig, WorkerConfig, paper_randomization
+from learn.curriculum import TerrainCurriculum, VelocityCurriculum
+from learn.observation import ObservationLayout
+from learn.policy import ActorCritic, load_checkpoint
+from learn.ppo import Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
+from learn.runner import POLICY, TRAINING_STATE, deployable_checkpoint, rollout_seed, save_torch
+from learn.vec_env import RolloutRequest, make_vec_env
+from mbc.errors import ConfigError
+
+DISTILLED = Path(__file__).resolve().parents[1] / "policies" / "distilled.pt"
+
+
+@dataclass(frozen=True)
+class FinetuneConfig:
+    """A fine-tuning run."""
+
+    method: Method = "ppf"
+    """ppf (MAR-weighted regularizer), fullreg (constant weight), ifm (none), purerl (none, no pre-training)."""
+    run_dir: Path = Path("runs/finetune")
+    seed: int = 0
+    resume: bool = False
+    """Continue the run in `run_dir` from its last checkpoint."""
+    init_policy: Path | None = DISTILLED
+    """The pre-trained policy to start from (ignored by purerl, which starts from scratch)."""
+    iterations: int = 150
+    steps_per_env: int = 100
+    """Ticks per environment per iteration (0.5 s)."""
+    label_every: int = 1
+    """PPF and FullReg: the expert labels every k-th tick (its clock still sees every tick)."""
+    init_log_std: float = -2.0
+    """Log standard deviation of the exploration noise at the start (normalized action units)."""
+    terrain_curriculum: bool = True
+    velocity_curriculum: bool = True
+    env: EnvConfig = field(default_factory=lambda: EnvConfig(terrains=("flat",), randomization=paper_randomization()))
+    ppo: PpoConfig = field(default_factory=PpoConfig)
+    curriculum: TerrainCurriculum = field(default_factory=TerrainCurriculum)
+    velocity: VelocityCurriculum = field(default_factory=VelocityCurriculum)
+    policy: PolicyConfig = field(default_factory=PolicyConfig)
+    workers: WorkerConfig = field(default_factory=WorkerConfig)
+
+    def regularizer(self) -> RegularizerConfig:
+        return method_regularizer(self.method, self.label_every)
+
+
+class FinetuneRunner:
+    """Runs (or resumes) a fine-tuning in `config.run_dir`."""
+
+    def __init__(self, config: FinetuneConfig) -> None:
+        self.config = cfg = config
+        self.run_dir = Path(cfg.run_dir)
+        state_path = self.run_dir / TRAINING_STATE
+        if state_path.exists() and not cfg.resume:
+            raise ConfigError(f"{self.run_dir} already holds a run; pass --resume to continue it or choose another run_dir")
+        if cfg.resume and not state_path.exists():
+            raise ConfigError(f"nothing to resume in {self.run_dir} (no {TRAINING_STATE})")
+        env = dataclasses.replace(cfg.env, purerl_rewards=cfg.method == "purerl")
+        self.env_config = env
+        self.action_space = ActionSpace()
+        if cfg.method == "purerl" or cfg.init_policy is None:
+            self.model = ActorCritic(ObservationLayout(env.history_length).size, cfg.policy)
+            self._fresh_normalizer = True
+        else:
+            self.model = ActorCritic.from_checkpoint(load_checkpoint(cfg.init_policy))
+            self._fresh_normalizer = False
+        with torch.no_grad():
+            self.model.log_std.fill_(cfg.init_log_std)
+        self.ppo = Ppo(self.model, cfg.ppo, cfg.regularizer(), seed=cfg.seed)
+        self.start_iteration, self.samples, self.wall_s = 0, 0, 0.0
+        self.forward_max = cfg.velocity.start_mps
+        if state_path.exists():
+            self._restore(state_path)
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        (self.run_dir / "config.json").write_text(json.dumps(dataclasses.asdict(cfg), indent=2, default=str))
+
+    def _restore(self, path: Path) -> None:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+        self.model.load_state_dict(state["policy"]["state_dict"])
+        self.ppo.optimizer.load_state_dict(state["optimizer"])
+        self.ppo.learning_rate = float(state["learning_rate"])
+        self.start_iteration = int(state["iteration"]) + 1
+        self.samples, self.wall_s, self.forward_max = int(state["samples"]), float(state["wall_s"]), float(state["forward_max"])
+        self._fresh_normalizer = False
+
+    def learn(self) -> Path:
+        """Run the remaining iterations; returns the path of the deployable policy."""
+        from torch.utils.tensorboard import SummaryWriter
+
+        cfg = self.config
+        regularizer = cfg.regularizer()
+        curriculum = cfg.curriculum if cfg.terrain_curriculum else None
+        writer = SummaryWriter(str(self.run_dir / "tensorboard"))
+        with make_vec_env(self.env_config, cfg.workers.workers, cfg.workers.envs_per_worker, regularizer.uses_expert,
+                          curriculum) as vec_env:
+            bar = tqdm(range(self.start_iteration, cfg.iterations), desc=f"fine-tuning ({cfg.method})", unit="it",
+                       initial=self.start_iteration, total=cfg.iterations, disable=None)
+            for iteration in bar:
+                start = time.perf_counter()
+                rollout = vec_env.collect(RolloutRequest(
+                    deployable_checkpoint(self.model, self.env_config, self.action_space), cfg.steps_per_env,
+                    rollout_seed(cfg.seed, iteration), label_every=regularizer.label_every if regularizer.uses_expert else 0,
+                    stochastic=True, continue_episodes=iteration > self.start_iteration,
+                    forward_command_max_mps=self.forward_max if cfg.velocity_curriculum else None))
+                collected = time.perf_counter()
+                if self._fresh_normalizer:  # PureRL: normalize by the first rollout's statistics, then keep them
+                    self.model.normalizer.set_statistics(rollout.observations.reshape(-1, rollout.observations.shape[-1]))
+                    self._fresh_normalizer = False
+                stats = self.ppo.update(rollout, critic_only=iteration < cfg.ppo.critic_warmup_iterations)
+                self.samples += rollout.samples
+                self.wall_s += time.perf_counter() - start
+                scalars = self._scalars(rollout, stats, collected - start, time.perf_counter() - collected)
+                if cfg.velocity_curriculum:
+                    self.forward_max = cfg.velocity.next_max(self.forward_max, scalars["rollout/lin_vel_tracking"])
+                self._checkpoint(iteration)
+                for name, value in scalars.items():
+                    writer.add_scalar(name, value, iteration)
+                bar.write(f"iteration {iteration}: " + ", ".join(f"{k} {v:.4g}" for k, v in scalars.items()))
+        writer.close()
+        return self.run_dir / POLICY
+
+    def _scalars(self, rollout, stats: dict[str, float], collect_s: float, update_s: float) -> dict[str, float]:
+        episodes = rollout.episodes
+        scalars = {f"loss/{k}": v for k, v in stats.items()}
+        scalars |= {f"reward/{k}": v for k, v in rollout.reward_terms.items()}
+        scalars |= {"rollout/reward_per_tick": float(rollout.rewards.mean()),
+                    "rollout/lin_vel_tracking": rollout.reward_terms["lin_vel_tracking"],
+                    "rollout/falls": float(sum(e["fell"] for e in episodes)), "rollout/episodes": float(len(episodes)),
+                    "rollout/mean_terrain_level": float(np.mean([e["level"] for e in episodes])) if episodes else np.nan,
+                    "rollout/samples_per_s": rollout.samples / collect_s, "time/update_s": update_s,
+                    "curriculum/forward_max_mps": self.forward_max, "samples_total": float(self.samples)}
+        return scalars
+
+    def _checkpoint(self, iteration: int) -> None:
+        policy = deployable_checkpoint(self.model, self.env_config, self.action_space, iteration=iteration,
+                                       samples=self.samples, wall_s=self.wall_s, method=self.config.method)
+        save_torch(self.run_dir / POLICY, policy)
+        save_torch(self.run_dir / TRAINING_STATE, {"policy": policy, "optimizer": self.ppo.optimizer.state_dict(),
+                                                   "learning_rate": self.ppo.learning_rate, "iteration": iteration,
+                                                   "samples": self.samples, "wall_s": self.wall_s,
+                                                   "forward_max": self.forward_max})

@@ -1,0 +1,194 @@
+"""PPO with the paper's regularizers: the update of one iteration, on a batch of rollouts.
+
+A compact PPO of our own rather than rsl-rl-lib's: its `PPO.update` computes the surrogate, value and
+entropy terms inside one loop with no hook for another loss term, so the expert regularizer (which
+needs the expert's labels and the assumption monitors of each sample) and the Lipschitz penalty
+could only be added by copying that loop. Here the loss is the sum of the small terms of
+`learn.losses`, and the paper's variants are configurations of `RegularizerConfig` (`method_regularizer`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import torch
+
+from learn.env import MONITOR_NAMES
+from learn.losses import (
+    clipped_surrogate,
+    clipped_value_loss,
+    expert_regularizer,
+    generalized_advantages,
+    lipschitz_penalty,
+    mar_weight,
+)
+from learn.policy import ActorCritic
+from learn.vec_env import Rollout
+from mbc.assumptions import MAR_DELTA, MAR_W0
+from mbc.errors import ConfigError
+
+Method = Literal["ppf", "fullreg", "ifm", "purerl"]
+METHODS: tuple[str, ...] = ("ppf", "fullreg", "ifm", "purerl")
+
+
+@dataclass(frozen=True)
+class RegularizerConfig:
+    """The pull toward the expert, E[w(s) ||a_E(s) - mu(s)||^2], and the Lipschitz penalty."""
+
+    weighting: Literal["mar", "constant", "none"] = "mar"
+    """'mar': w0 prod_m exp(-m^2 / delta_m) (PPF); 'constant': w0 (FullReg); 'none' (IFM, PureRL)."""
+    w0: float = MAR_W0
+    """Largest regularization weight (the paper's 5)."""
+    monitors: tuple[str, ...] = ("com_vertical_velocity_mps",)
+    """Assumption monitors the MAR weight reads (`learn.env.MONITOR_NAMES`); the paper's: CoM z' alone."""
+    deltas: tuple[float, ...] = (MAR_DELTA,)
+    """delta_m of each monitor (the paper's 0.0159 (m/s)^2 for z')."""
+    label_every: int = 1
+    """The expert labels every k-th tick of each environment (an unbiased subsample of the states)."""
+    lipschitz_alpha: float = 1e-4
+    """alpha of the Lipschitz penalty alpha E[||grad_s mu(s)||^2] (the paper's 1e-4; 0: off)."""
+
+    def __post_init__(self) -> None:
+        if self.weighting not in ("mar", "constant", "none"):
+            raise ConfigError(f"weighting must be 'mar', 'constant' or 'none', got {self.weighting!r}")
+        unknown = sorted(set(self.monitors) - set(MONITOR_NAMES))
+        if unknown or len(self.monitors) != len(self.deltas) or any(d <= 0 for d in self.deltas):
+            raise ConfigError(f"monitors must be among {MONITOR_NAMES} with one positive delta each; "
+                              f"got {self.monitors}, {self.deltas}")
+        if self.label_every < 1 and self.weighting != "none":
+            raise ConfigError("a regularizer toward the expert needs labels: label_every >= 1")
+
+    @property
+    def uses_expert(self) -> bool:
+        return self.weighting != "none"
+
+
+def method_regularizer(method: Method, label_every: int = 1) -> RegularizerConfig:
+    """The paper's variants: PPF (MAR on z'), FullReg (constant weight), IFM and PureRL (none)."""
+    if method == "ppf":
+        return RegularizerConfig("mar", label_every=label_every)
+    if method == "fullreg":
+        return RegularizerConfig("constant", label_every=label_every)
+    if method in ("ifm", "purerl"):
+        return RegularizerConfig("none", label_every=0)
+    raise ConfigError(f"unknown method {method!r}; valid: {list(METHODS)}")
+
+
+@dataclass(frozen=True)
+class PpoConfig:
+    """PPO's settings."""
+
+    epochs: int = 5
+    minibatches: int = 4
+    clip: float = 0.2
+    """Ratio clip of the surrogate, and of the value change."""
+    gamma: float = 0.99
+    lam: float = 0.95
+    learning_rate: float = 1e-5
+    """Adam step size at the start (small: Adam's first steps move every weight of a pre-trained actor
+    by about this much at once); the KL rule adapts it."""
+    desired_kl: float = 0.01
+    """Adaptive learning rate: divided by 1.5 when an update's KL exceeds twice this, multiplied below half."""
+    entropy_coef: float = 0.001
+    value_coef: float = 1.0
+    max_grad_norm: float = 1.0
+    critic_warmup_iterations: int = 10
+    """Iterations in which only the critic learns (a pre-trained actor facing a random critic otherwise
+    forgets in the first updates)."""
+
+    def __post_init__(self) -> None:
+        if self.epochs < 1 or self.minibatches < 1 or not 0 < self.clip < 1 or not 0 < self.gamma <= 1:
+            raise ConfigError("need epochs, minibatches >= 1, clip in (0, 1) and gamma in (0, 1]")
+
+
+class Ppo:
+    """The update of the actor-critic from one batch of rollouts."""
+
+    def __init__(self, model: ActorCritic, config: PpoConfig, regularizer: RegularizerConfig, seed: int = 0) -> None:
+        self.model, self.config, self.regularizer = model, config, regularizer
+        self.learning_rate = config.learning_rate
+        self.optimizer = torch.optim.Adam([p for name, p in model.named_parameters() if not name.startswith("normalizer")],
+                                          lr=self.learning_rate)
+        self._monitor_columns = [MONITOR_NAMES.index(m) for m in regularizer.monitors]
+        self._deltas = torch.tensor(regularizer.deltas)
+        self.generator = torch.Generator().manual_seed(seed)
+
+    def regularization_weight(self, monitors: torch.Tensor) -> torch.Tensor:
+        """w(s) of each sample from its monitors (N, len(MONITOR_NAMES))."""
+        if self.regularizer.weighting == "mar":
+            return mar_weight(monitors[:, self._monitor_columns], self._deltas, self.regularizer.w0)
+        return torch.full(monitors.shape[:1], self.regularizer.w0 if self.regularizer.weighting == "constant" else 0.0)
+
+    def update(self, rollout: Rollout, critic_only: bool = False) -> dict[str, float]:
+        """Epochs of minibatch updates on `rollout`; returns the mean of each loss term and statistics."""
+        cfg = self.config
+        as_tensor = lambda a: torch.as_tensor(np.asarray(a))  # noqa: E731
+        advantages, returns = generalized_advantages(
+            as_tensor(rollout.rewards), as_tensor(rollout.values), as_tensor(rollout.terminated),
+            as_tensor(rollout.truncated), as_tensor(rollout.last_values), cfg.gamma, cfg.lam)
+        flat = lambda a: as_tensor(a).reshape(-1, *np.shape(a)[2:])  # noqa: E731
+        obs, actions, old_log_probs = flat(rollout.observations), flat(rollout.actions), flat(rollout.log_probs)
+        old_values, returns, advantages = flat(rollout.values), returns.reshape(-1), advantages.reshape(-1)
+        advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
+        labelled = flat(rollout.label_valid)
+        expert_actions, weights = flat(rollout.expert_actions), self.regularization_weight(flat(rollout.monitors))
+        old_mean = self.model.action_mean(obs).detach()
+        old_std = self.model.log_std.exp().detach()
+        sums: dict[str, float] = {}
+        count = 0
+        n = len(obs)
+        for _ in range(cfg.epochs):
+            order = torch.randperm(n, generator=self.generator)
+            for batch in order.chunk(cfg.minibatches):
+                terms = self._terms(obs[batch], actions[batch], old_log_probs[batch], old_values[batch], returns[batch],
+                                    advantages[batch], expert_actions[batch], weights[batch], labelled[batch], critic_only)
+                loss = sum(terms.values())
+                self.optimizer.zero_grad(set_to_none=True)
+                loss.backward()
+                torch.nn.utils.clip_grad_norm_(self.model.parameters(), cfg.max_grad_norm)
+                self.optimizer.step()
+                kl = self._kl(old_mean[batch], old_std, obs[batch])
+                if not critic_only:
+                    self._adapt_learning_rate(kl)
+                for name, value in [*terms.items(), ("kl", kl)]:
+                    sums[name] = sums.get(name, 0.0) + float(value.detach() if torch.is_tensor(value) else value)
+                count += 1
+        stats = {name: value / count for name, value in sums.items()}
+        stats |= {"learning_rate": self.learning_rate, "action_std": float(self.model.log_std.exp().mean()),
+                  "regularization_weight": float(weights[labelled].mean()) if labelled.any() else 0.0,
+                  "labelled_fraction": float(labelled.float().mean())}
+        return stats
+
+    def _terms(self, obs, actions, old_log_probs, old_values, returns, advantages, expert_actions, weights, labelled,
+               critic_only: bool) -> dict[str, torch.Tensor]:
+        cfg = self.config
+        terms = {"value": cfg.value_coef * clipped_value_loss(self.model.value(obs), old_values, returns, cfg.clip)}
+        if critic_only:
+            return terms
+        distribution = self.model.distribution(obs)
+        terms["surrogate"] = clipped_surrogate(distribution.log_prob(actions).sum(-1), old_log_probs, advantages, cfg.clip)
+        terms["entropy"] = -cfg.entropy_coef * distribution.entropy().sum(-1).mean()
+        if self.regularizer.uses_expert:
+            terms["regularizer"] = expert_regularizer(distribution.mean, expert_actions, weights, labelled)
+        if self.regularizer.lipschitz_alpha > 0:
+            terms["lipschitz"] = self.regularizer.lipschitz_alpha * lipschitz_penalty(
+                self.model.actor, self.model.normalizer(obs), self.generator)
+        return terms
+
+    def _kl(self, old_mean: torch.Tensor, old_std: torch.Tensor, obs: torch.Tensor) -> float:
+        """Mean KL(old || new) of the diagonal Gaussians."""
+        with torch.no_grad():
+            new_mean, new_std = self.model.action_mean(obs), self.model.log_std.exp()
+            kl = (torch.log(new_std / old_std) + (old_std.square() + (old_mean - new_mean).square()) / (2 * new_std.square())
+                  - 0.5).sum(-1)
+        return float(kl.mean())
+
+    def _adapt_learning_rate(self, kl: float) -> None:
+        if kl > 2.0 * self.config.desired_kl:
+            self.learning_rate = max(self.learning_rate / 1.5, 1e-5)
+        elif kl < 0.5 * self.config.desired_kl:
+            self.learning_rate = min(self.learning_rate * 1.5, 1e-2)
+        for group in self.optimizer.param_groups:
+            group["lr"] = self.learning_rate

@@ -1,0 +1,132 @@
+"""The fine-tuning loss term by term, the paper's variants as configurations, and short runs."""
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+
+from learn.config import EnvConfig, PushSampling, WorkerConfig
+from learn.finetune import FinetuneConfig, FinetuneRunner
+from learn.losses import (
+    clipped_surrogate,
+    clipped_value_loss,
+    expert_regularizer,
+    generalized_advantages,
+    lipschitz_penalty,
+    mar_weight,
+)
+from learn.policy import ActorCritic
+from learn.ppo import METHODS, Ppo, PpoConfig, method_regularizer
+from mbc.errors import ConfigError
+
+
+def test_gae_by_hand():
+    """Two steps, one env, gamma 0.9, lambda 0.5, rewards (1, 2), values (0.5, 1.0), bootstrap 2.0:
+    delta_1 = 2 + 0.9 * 2.0 - 1.0 = 2.8,          A_1 = 2.8
+    delta_0 = 1 + 0.9 * 1.0 - 0.5 = 1.4,          A_0 = 1.4 + 0.9 * 0.5 * 2.8 = 2.66.
+    With a termination at step 0 the next state starts a new episode: A_0 = 1 - 0.5 = 0.5.
+    With a truncation at step 0 its reward is bootstrapped by its own value: A_0 = 1 + 0.9 * 0.5 - 0.5 = 0.95."""
+    rewards, values = torch.tensor([[1.0], [2.0]]), torch.tensor([[0.5], [1.0]])
+    last, no = torch.tensor([2.0]), torch.zeros(2, 1, dtype=torch.bool)
+    advantages, returns = generalized_advantages(rewards, values, no, no, last, 0.9, 0.5)
+    torch.testing.assert_close(advantages, torch.tensor([[2.66], [2.8]]))
+    torch.testing.assert_close(returns, advantages + values)
+    ended = torch.tensor([[True], [False]])
+    assert float(generalized_advantages(rewards, values, ended, no, last, 0.9, 0.5)[0][0, 0]) == pytest.approx(0.5)
+    assert float(generalized_advantages(rewards, values, no, ended, last, 0.9, 0.5)[0][0, 0]) == pytest.approx(0.95)
+
+
+def test_clipped_surrogate_and_value_loss_by_hand():
+    # ratios e^0.5 = 1.65 (clipped to 1.2 for a positive advantage) and e^-0.5 = 0.61 (negative advantage: min keeps 0.8)
+    log_prob, old = torch.tensor([0.5, -0.5]), torch.zeros(2)
+    advantages = torch.tensor([1.0, -1.0])
+    expected = -(1.2 * 1.0 + 0.8 * -1.0) / 2
+    assert float(clipped_surrogate(log_prob, old, advantages, 0.2)) == pytest.approx(expected)
+    # V moved 1.0 from 0 toward a return of 2: clipped to 0.2, so max((1-2)^2, (0.2-2)^2) = 3.24
+    assert float(clipped_value_loss(torch.tensor([1.0]), torch.tensor([0.0]), torch.tensor([2.0]), 0.2)) == pytest.approx(3.24)
+
+
+@pytest.mark.parametrize("zdot, expected", [(0.0, 5.0), (0.1, 5.0 * math.exp(-0.01 / 0.0159)),
+                                            (0.5, 5.0 * math.exp(-0.25 / 0.0159))])
+def test_mar_weight_at_chosen_vertical_velocities(zdot, expected):
+    weight = mar_weight(torch.tensor([[zdot]]), torch.tensor([0.0159]), 5.0)
+    assert float(weight) == pytest.approx(expected, rel=1e-6)
+    # several monitors multiply: a second one at m^2 = delta contributes exp(-1)
+    both = mar_weight(torch.tensor([[zdot, 0.2]]), torch.tensor([0.0159, 0.04]), 5.0)
+    assert float(both) == pytest.approx(expected * math.exp(-1.0), rel=1e-6)
+
+
+def test_expert_regularizer_weights_labelled_samples_only():
+    mean = torch.tensor([[0.0, 0.0], [1.0, 1.0], [5.0, 5.0]])
+    expert = torch.tensor([[1.0, 0.0], [1.0, 3.0], [0.0, 0.0]])
+    weight = torch.tensor([2.0, 0.5, 9.0])
+    labelled = torch.tensor([True, True, False])
+    assert float(expert_regularizer(mean, expert, weight, labelled)) == pytest.approx((2.0 * 1.0 + 0.5 * 4.0) / 2)
+    assert float(expert_regularizer(mean, expert, weight, torch.zeros(3, dtype=torch.bool))) == 0.0
+
+
+def test_lipschitz_penalty_of_a_linear_policy_is_its_squared_weight_norm():
+    torch.manual_seed(0)
+    linear = torch.nn.Linear(7, 3)
+    generator = torch.Generator().manual_seed(1)
+    inputs = torch.randn(20000, 7)
+    estimate = float(lipschitz_penalty(linear, inputs, generator).detach())
+    assert estimate == pytest.approx(float(linear.weight.square().sum()), rel=0.03)
+
+
+def test_variants_differ_only_in_their_regularizer():
+    configs = {method: method_regularizer(method) for method in METHODS}
+    assert configs["ppf"].weighting == "mar" and configs["ppf"].monitors == ("com_vertical_velocity_mps",)
+    assert configs["fullreg"].weighting == "constant" and configs["ifm"].weighting == configs["purerl"].weighting == "none"
+    common = {name for name in RegularizerFields if name not in ("weighting", "label_every")}
+    for config in configs.values():
+        assert {name: getattr(config, name) for name in common} == {name: getattr(configs["ppf"], name) for name in common}
+    assert not configs["ifm"].uses_expert and configs["fullreg"].uses_expert
+    with pytest.raises(ConfigError, match="valid"):
+        method_regularizer("magic")
+
+
+RegularizerFields = [f.name for f in dataclasses.fields(method_regularizer("ppf"))]
+
+
+def test_update_terms_per_variant_and_critic_only_leaves_the_actor(rng):
+    model = ActorCritic(10)
+    n, T = 4, 8
+    from learn.vec_env import Rollout
+
+    rollout = Rollout(observations=rng.normal(size=(T, n, 10)).astype(np.float32),
+                      expert_actions=rng.normal(size=(T, n, 24)).astype(np.float32), label_valid=np.ones((T, n), bool),
+                      expert_acted=np.zeros((T, n), bool), actions=rng.normal(size=(T, n, 24)).astype(np.float32),
+                      rewards=rng.normal(size=(T, n)).astype(np.float32), terminated=np.zeros((T, n), bool),
+                      truncated=np.zeros((T, n), bool), monitors=rng.normal(scale=0.1, size=(T, n, 3)).astype(np.float32),
+                      log_probs=np.full((T, n), -20.0, np.float32), values=np.zeros((T, n), np.float32),
+                      last_values=np.zeros(n, np.float32))
+    actor_before = [p.clone() for p in model.actor.parameters()]
+    stats = Ppo(model, PpoConfig(epochs=1, minibatches=2), method_regularizer("ppf")).update(rollout, critic_only=True)
+    assert set(stats) >= {"value"} and "surrogate" not in stats
+    assert all(torch.equal(a, b) for a, b in zip(actor_before, model.actor.parameters()))
+    for method, extra in (("ppf", {"regularizer"}), ("ifm", set())):
+        stats = Ppo(model, PpoConfig(epochs=1, minibatches=2), method_regularizer(method)).update(rollout)
+        terms = {"value", "surrogate", "entropy", "lipschitz"} | extra
+        assert terms <= set(stats) and ("regularizer" in stats) == bool(extra)
+
+
+def _short_run(tmp_path: Path, method: str, iterations: int, resume: bool = False) -> FinetuneConfig:
+    env = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0))
+    return FinetuneConfig(method=method, run_dir=tmp_path / method, seed=0, resume=resume, iterations=iterations,
+                          steps_per_env=60, terrain_curriculum=False, velocity_curriculum=False, env=env,
+                          ppo=PpoConfig(critic_warmup_iterations=1), workers=WorkerConfig(workers=0, envs_per_worker=2))
+
+
+def test_a_short_run_resumes_where_it_stopped(tmp_path):
+    FinetuneRunner(_short_run(tmp_path, "ifm", 2)).learn()
+    with pytest.raises(ConfigError, match="--resume"):
+        FinetuneRunner(_short_run(tmp_path, "ifm", 3))
+    runner = FinetuneRunner(_short_run(tmp_path, "ifm", 3, resume=True))
+    assert runner.start_iteration == 2 and runner.samples == 2 * 2 * 60
+    runner.learn()
+    state = torch.load(tmp_path / "ifm" / "training_state.pt", weights_only=True)
+    assert state["iteration"] == 2 and state["samples"] == 3 * 2 * 60
