@@ -14,3 +14,15 @@ def test_tick_parts_benchmark_prints_its_figures():
     assert result.returncode == 0, result.stderr
     assert re.search(r"IK \(placo, two solves\)\s+alone\s+[\d.]+ us\s+in the tick\s+[\d.]+ us", result.stdout)
     assert re.search(r"whole act\(\) [\d.]+ us; .* inside the tick to [\d.]+ us \(x[\d.]+\)", result.stdout)
+
+
+def test_learning_throughput_benchmarks_print_their_figures():
+    dagger = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_dagger_throughput.py"), "--workers", "1",
+                             "--envs", "2", "--steps", "10"], capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert dagger.returncode == 0, dagger.stderr
+    assert re.search(r"^\s+1\s+2\s+\d+\s+\d+\s+\d+%\s+\d+%\s+\d+%\s+-?\d+%$", dagger.stdout, re.MULTILINE)
+    ppo = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_ppo_throughput.py"), "--workers", "1",
+                          "--envs-per-worker", "2", "--steps", "10", "--label-every", "4"],
+                         capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert ppo.returncode == 0, ppo.stderr
+    assert re.search(r"ppf / fullreg, 1/4\s+\d+\s+\d+%", ppo.stdout)
