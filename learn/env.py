@@ -155,9 +155,9 @@ class WalkEnv:
 
     def _sample_command(self) -> np.ndarray:
         command = sample_command(self.rng, self.config.commands)
-        if command[0] > 0:  # the forward range up to the curriculum's current end
-            low, high = self.config.commands.vx_mps
-            command[0] = low + (command[0] - low) * (self.forward_command_max_mps - low) / (high - low)
+        high = self.config.commands.vx_mps[1]
+        if command[0] > 0 and high > 0:  # forward commands stretched to the curriculum's current end
+            command[0] *= self.forward_command_max_mps / high
         return command
 
     def _randomize_dynamics(self, rng: np.random.Generator) -> None:

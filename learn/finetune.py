@@ -153,7 +153,10 @@ class FinetuneRunner:
         return scalars
 
     def _checkpoint(self, iteration: int) -> None:
-        policy = deployable_checkpoint(self.model, self.env_config, self.action_space, iteration=iteration,
+        sampling = self.env_config.commands
+        trained = dataclasses.replace(self.env_config, commands=dataclasses.replace(  # the commands it has seen
+            sampling, vx_mps=(sampling.vx_mps[0], max(sampling.vx_mps[1], self.forward_max))))
+        policy = deployable_checkpoint(self.model, trained, self.action_space, iteration=iteration,
                                        samples=self.samples, wall_s=self.wall_s, method=self.config.method)
         save_torch(self.run_dir / POLICY, policy)
         save_torch(self.run_dir / TRAINING_STATE, {"policy": policy, "optimizer": self.ppo.optimizer.state_dict(),
