@@ -3,6 +3,7 @@
     python examples/visualize_meshcat.py                       # prints the viewer URL, walks 10 s
     python examples/visualize_meshcat.py --record walk.html    # also writes a self-contained replay
     python examples/visualize_meshcat.py --terrain uneven --plots plots/
+    python examples/visualize_meshcat.py --policy policies/distilled.pt   # a learned policy instead of the MBC
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from typing import Literal
 
 import tyro
 
+from learn.policy import PolicyController
 from mbc.controller import AlipController
 from mbc.rollout import run_episode
 from mbc.sim import DigitSim
@@ -38,12 +40,14 @@ class Args:
     """Pace the simulation to wall-clock time so the live view plays at real speed."""
     keep_open_s: float = 0.0
     """Keep the server up this long after the run (to look around)."""
+    policy: Path | None = None
+    """Walk with this learned policy checkpoint instead of the MBC (no controller diagnostics are drawn)."""
 
 
 def main(args: Args) -> None:
     sim = DigitSim(args.terrain, seed=args.seed)
     viewer = MeshcatViewer(sim)
-    controller = AlipController.for_digit()
+    controller = PolicyController(args.policy) if args.policy else AlipController.for_digit()
     draw = viewer.on_tick(controller)
     start = time.perf_counter()
 

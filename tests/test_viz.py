@@ -6,6 +6,7 @@ import subprocess
 import tempfile
 import threading
 import warnings
+from pathlib import Path
 
 import matplotlib.image
 import meshcat
@@ -170,3 +171,10 @@ def test_velocity_average_has_no_edge_dip_and_footstep_legend_is_unique(monkeypa
     figures[0].canvas.draw()
     legend_box = axes.get_legend().get_window_extent()
     assert legend_box.y1 < axes.get_window_extent().y0  # below the axes, not over the data
+
+
+def test_plots_of_a_policy_episode_without_diagnostics(tmp_path):
+    from learn.policy import PolicyController
+
+    episode = run_episode(DigitSim(), PolicyController(Path(__file__).resolve().parents[1] / "policies" / "distilled.pt"), Command(0.3), 1.0)
+    assert [p.name for p in save_all(episode, tmp_path)] == ["velocity_tracking.png"]

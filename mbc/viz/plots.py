@@ -130,11 +130,14 @@ def tick_histogram(episode: Episode, path: Path) -> Path:
 
 
 def save_all(episode: Episode, directory: str | Path) -> list[Path]:
-    """Write every plot of `episode` into `directory`; returns the PNG paths."""
+    """Write every plot of `episode` into `directory`; returns the PNG paths. An episode without the
+    controller's diagnostics (a learned policy) gets the velocity plot only."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    return [phase_portrait(episode, directory / "phase_portrait.png"),
-            velocity_tracking(episode, directory / "velocity_tracking.png"),
+    velocity = velocity_tracking(episode, directory / "velocity_tracking.png")
+    if not _ticks(episode):
+        return [velocity]
+    return [phase_portrait(episode, directory / "phase_portrait.png"), velocity,
             foot_placements(episode, directory / "foot_placements.png"),
             violation_timeline(episode, directory / "violations.png"),
             tick_histogram(episode, directory / "tick_time.png")]
