@@ -176,5 +176,6 @@ def test_velocity_average_has_no_edge_dip_and_footstep_legend_is_unique(monkeypa
 def test_plots_of_a_policy_episode_without_diagnostics(tmp_path):
     from learn.policy import PolicyController
 
-    episode = run_episode(DigitSim(), PolicyController(Path(__file__).resolve().parents[1] / "policies" / "distilled.pt"), Command(0.3), 1.0)
+    policy = PolicyController(Path(__file__).resolve().parents[1] / "policies" / "distilled.pt")
+    episode = run_episode(DigitSim(), policy, Command(0.3), 1.0)
     assert [p.name for p in save_all(episode, tmp_path)] == ["velocity_tracking.png"]
