@@ -7,8 +7,8 @@ one that falls before walking `demote_m` one level down. Level k of L has diffic
     uphill    slope  +(4 + 18 d) deg       downhill  slope  -(3 + 13 d) deg
     uneven    amplitude 1 + 4 d cm         stairs    risers 2 + 10 d cm
 
-Velocity: the upper end of the forward command grows by `step_mps` whenever the mean linear-velocity
-tracking reward of an iteration exceeds `threshold`, up to `max_mps`.
+Velocity: every `every_iterations`, the upper end of the forward command grows by `step_mps` if the
+mean linear-velocity tracking reward of that iteration exceeds `threshold`, up to `max_mps`.
 """
 
 from __future__ import annotations
@@ -68,6 +68,10 @@ class VelocityCurriculum:
     step_mps: float = 0.1
     threshold: float = 0.7
     """Mean lin_vel_tracking reward (in [0, 1]) above which the range widens."""
+    every_iterations: int = 50
+    """The range is reconsidered every this many iterations (the policy first learns the current range)."""
 
-    def next_max(self, current_mps: float, tracking: float) -> float:
-        return min(current_mps + self.step_mps, self.max_mps) if tracking > self.threshold else current_mps
+    def next_max(self, current_mps: float, tracking: float, iteration: int) -> float:
+        if iteration % self.every_iterations or tracking <= self.threshold:
+            return current_mps
+        return min(current_mps + self.step_mps, self.max_mps)

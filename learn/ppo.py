@@ -89,6 +89,8 @@ class PpoConfig:
     learning_rate: float = 1e-5
     """Adam step size at the start (small: Adam's first steps move every weight of a pre-trained actor
     by about this much at once); the KL rule adapts it."""
+    critic_learning_rate: float = 1e-3
+    """Adam step size of the critic (fixed: the distilled policy comes with an untrained critic)."""
     desired_kl: float = 0.01
     """Adaptive learning rate: divided by 1.5 when an update's KL exceeds twice this, multiplied below half."""
     entropy_coef: float = 0.001
@@ -109,8 +111,9 @@ class Ppo:
     def __init__(self, model: ActorCritic, config: PpoConfig, regularizer: RegularizerConfig, seed: int = 0) -> None:
         self.model, self.config, self.regularizer = model, config, regularizer
         self.learning_rate = config.learning_rate
-        self.optimizer = torch.optim.Adam([p for name, p in model.named_parameters() if not name.startswith("normalizer")],
-                                          lr=self.learning_rate)
+        actor = [*model.actor.parameters(), model.log_std]
+        self.optimizer = torch.optim.Adam([{"params": actor, "lr": self.learning_rate},
+                                           {"params": model.critic.parameters(), "lr": config.critic_learning_rate}])
         self._monitor_columns = [MONITOR_NAMES.index(m) for m in regularizer.monitors]
         self._deltas = torch.tensor(regularizer.deltas)
         self.generator = torch.Generator().manual_seed(seed)
@@ -190,5 +193,4 @@ class Ppo:
             self.learning_rate = max(self.learning_rate / 1.5, 1e-5)
         elif kl < 0.5 * self.config.desired_kl:
             self.learning_rate = min(self.learning_rate * 1.5, 1e-2)
-        for group in self.optimizer.param_groups:
-            group["lr"] = self.learning_rate
+        self.optimizer.param_groups[0]["lr"] = self.learning_rate  # the actor's
