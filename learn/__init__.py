@@ -1,7 +1,9 @@
 """Distillation of the model-based controller into a neural policy (DAgger) and its preservative
-fine-tuning (PPO with model-assumption-based regularization).
+fine-tuning (PPO with model-assumption-based regularization), after the PPF paper.
 
-Not implemented yet: this package is reserved for that work (it depends on `mbc`, never the
-reverse). The controller-side hooks it will use exist already: `mbc.rollout.Controller`,
-`AlipController` as a labeller on arbitrary states, `mbc.assumptions.mar_weight`.
+    from learn.policy import PolicyController        # a trained policy as a `mbc.types.Controller`
+
+`learn` depends only on `mbc`'s public API; `mbc` never imports it. Entry points:
+`examples/distill.py` (DAgger), `examples/distill_and_finetune.py` (the main job),
+`python -m learn.evaluate` (protocols for any controller).
 """
