@@ -33,7 +33,7 @@ from learn.rewards import (
     total_reward,
 )
 from mbc.controller import AlipControllerConfig
-from mbc.errors import ConfigError
+from mbc.errors import ConfigError, MbcError
 from mbc.geometry import rotate_inverse, yaw_of_quaternion
 from mbc.sim import DigitSim, DomainParams
 from mbc.types import RobotState
@@ -209,8 +209,12 @@ class WalkEnv:
             v_xy_heading=np.array([cos_yaw * vx + sin_yaw * vy, -sin_yaw * vx + cos_yaw * vy]),
             angvel_base=np.array(rotate_inverse(state.base_quat, state.base_angvel)), yaw_rate=float(state.base_angvel[2]),
             command=command, tau=state.tau), cfg.lin_vel_tracking_sigma, cfg.ang_vel_tracking_sigma)
-        terminated = self.sim.fallen or tilt_of(state.base_quat) > cfg.tilt_limit_rad
-        truncated = not terminated and self.episode_time_s >= cfg.episode_length_s - 1e-9
+        try:
+            fell, off_terrain = self.sim.fallen, False
+        except MbcError:  # walked off the edge of a bounded terrain: the episode ends, not as a failure
+            fell, off_terrain = False, True
+        terminated = fell or tilt_of(state.base_quat) > cfg.tilt_limit_rad
+        truncated = not terminated and (off_terrain or self.episode_time_s >= cfg.episode_length_s - 1e-9)
         if cfg.purerl_rewards:
             terms |= self._purerl_terms(state, action)
         if self.episode_time_s >= self._next_command_s:

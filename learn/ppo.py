@@ -159,7 +159,7 @@ class Ppo:
                     sums[name] = sums.get(name, 0.0) + float(value.detach() if torch.is_tensor(value) else value)
                 count += 1
         stats = {name: value / count for name, value in sums.items()}
-        stats |= {"learning_rate": self.learning_rate, "action_std": float(self.model.log_std.exp().mean()),
+        stats |= {"learning_rate": self.learning_rate, "action_std": float(self.model.log_std.detach().exp().mean()),
                   "regularization_weight": float(weights[labelled].mean()) if labelled.any() else 0.0,
                   "labelled_fraction": float(labelled.float().mean())}
         return stats

@@ -142,3 +142,15 @@ def test_bad_terrain_and_config_values_give_clear_errors():
         env = WalkEnv(QUIET, with_expert=False)
         env.reset(0)
         env.label()
+
+
+def test_walking_off_a_bounded_terrain_ends_the_episode_without_a_fall():
+    env = WalkEnv(EnvConfig(terrains=("uneven:amplitude=0.01,extent_m=1.0",), pushes=PushSampling(probability=0.0)))
+    env.reset(seed=0)
+    state = env.state.copy()
+    state.base_pos = state.base_pos + np.array([3.0, 0.0, 0.0])  # beyond the 1 m heightfield: no ground below
+    env.sim.set_state(state)
+    env.state = env.sim.state()
+    action, _ = env.label()
+    step = env.step(action)
+    assert step.truncated and not step.terminated
