@@ -73,7 +73,7 @@ def run_protocol(job: tuple[str, str, int]) -> dict:
     spec, protocol, seed = job
     warnings.simplefilter("ignore", RuntimeWarning)
     controller = make_controller(spec)
-    kind, _, value = protocol.partition("_")
+    kind, _, value = protocol.partition("_")  # e.g. uphill_16
     if kind == "flat":
         outcomes = []
         for command in (Command(0.5), Command(0.0, 0.2), Command(0.0, 0.0, 0.5)):
@@ -95,7 +95,7 @@ def run_protocol(job: tuple[str, str, int]) -> dict:
         sim = DigitSim("uneven", seed=seed, amplitude=float(value) / 100)
         episode = run_episode(sim, controller, Command(0.4), 20.0, state=_start(sim, seed))
         return {"success": not episode.fell, "fell": episode.fell, "metric": float(episode.base_pos[-1][0])}
-    if kind == "max_velocity":
+    if protocol == "max_velocity":
         sim = DigitSim(seed=seed)
         ramp = lambda t: Command(min(0.5 + 1.1 * t / 25.0, 1.6))  # noqa: E731
         episode = run_episode(sim, controller, ramp, 27.0, state=_start(sim, seed))

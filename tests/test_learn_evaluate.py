@@ -75,3 +75,9 @@ def test_main_job_in_miniature_fine_tunes_and_exports_onnx_that_agrees_with_torc
     onnx_actions = session.run(None, {"observation": observations})[0]
     torch_actions = model.action_mean(torch.as_tensor(observations)).detach().numpy()
     np.testing.assert_allclose(onnx_actions, torch_actions, atol=1e-4)
+
+
+def test_max_velocity_protocol_on_the_mbc_finds_its_command_limit():
+    """The MBC follows forward commands up to 1.0 m/s (its clip): the ramp finds about that."""
+    row = evaluate(["mbc"], ("max_velocity",), seeds=1, workers=1).rows[0]
+    assert 0.85 < row["metric"] < 1.15
