@@ -50,12 +50,19 @@ def drawn_blob(image, reference) -> tuple[int, int]:
     return int(mask.sum()), int(rows[-1] - rows[0]) if len(rows) else 0
 
 
-def scene_screenshot(chromium: str, url: str, out, empty_scene, attempts: int = 3):
-    """A page once it shows more than an empty scene: a cold browser on a busy machine can take the
-    screenshot before the scene has arrived (seen once in CI); retried, the checks are not waived."""
+def shows_terrain(image) -> bool:
+    """The terrain (grey-green, _TERRAIN in the viewer) covers most of the lower half of the frame."""
+    lower = image[image.shape[0] // 2:]
+    grey_green = (np.abs(lower[..., 0] - lower[..., 2]) < 0.08) & (lower[..., 1] >= lower[..., 0]) & (lower[..., 1] > 0.2)
+    return grey_green.mean() > 0.5
+
+
+def scene_screenshot(chromium: str, url: str, out, empty_scene, attempts: int = 4):
+    """A page once its whole scene (terrain included) has arrived: a cold browser on a busy machine can
+    shoot before the websocket has delivered it (seen in CI); retried, the checks are not waived."""
     for _ in range(attempts):
         image = screenshot(chromium, url, out)
-        if drawn_blob(image, empty_scene)[0] > 0:
+        if drawn_blob(image, empty_scene)[0] > 0 and shows_terrain(image):
             break
     return image
 
