@@ -27,10 +27,9 @@ import tyro
 from learn.policy import PolicyController
 from mbc.controller import AlipController
 from mbc.fuzz import random_robot_state
-from mbc.rollout import Push, run_episode
+from mbc.rollout import Push, perturbed_stand, run_episode, tracked
 from mbc.sim import DigitSim
-from mbc.types import Command, RobotState
-from robots.digit import constants as digit
+from mbc.types import Command
 
 Suite = Literal["flat", "push", "terrain", "speed", "corrupt", "takeover"]
 
@@ -51,18 +50,6 @@ class Args:
     """A learned policy checkpoint to run beside the MBC in the flat, push and terrain suites."""
 
 
-def perturbed_start(sim: DigitSim, seed: int) -> RobotState:
-    rng = np.random.default_rng(seed)
-    state = sim.reset(seed=seed)
-    state.q = state.q + rng.uniform(-0.02, 0.02, digit.NUM_JOINTS)
-    state.base_linvel = np.r_[rng.uniform(-0.05, 0.05, 2), 0.0]
-    return state
-
-
-def within(measured: float, commanded: float) -> bool:
-    return abs(measured - commanded) <= max(0.1 * abs(commanded), 0.05)
-
-
 def _walk(job: tuple) -> dict:
     """One run: (label, commands, duration, seed, terrain, terrain params, pushes[, controller options])."""
     label, commands, duration, seed, terrain, params, pushes, *options = job
@@ -71,13 +58,13 @@ def _walk(job: tuple) -> dict:
     options = dict(options[0]) if options else {}
     policy = options.pop("policy", None)
     controller = PolicyController(policy) if policy else AlipController.for_digit(**options)
-    episode = run_episode(sim, controller, commands, duration, pushes, state=perturbed_start(sim, seed))
+    episode = run_episode(sim, controller, commands, duration, pushes, state=perturbed_stand(sim, seed))
     final = commands if isinstance(commands, Command) else commands[-1][1]
     since = 3.0 if isinstance(commands, Command) else commands[-1][0] + 2.0
     mean = episode.mean_velocity(since_s=since)
-    tracked = not episode.fell and all(within(m, cmd) for m, cmd in zip(mean, final.as_array()))
+    followed = not episode.fell and all(tracked(m, cmd) for m, cmd in zip(mean, final.as_array()))
     return {"label": label, "seed": seed, "push_n": max((float(np.linalg.norm(p.force_n)) for p in pushes), default=0.0),
-            "fell": episode.fell, "tracked": tracked, "mean": mean, "final": final.as_array(),
+            "fell": episode.fell, "tracked": followed, "mean": mean, "final": final.as_array(),
             "x_end": episode.base_pos[-1][0], "fallbacks": getattr(controller, "fallback_count", 0)}
 
 
@@ -264,7 +251,7 @@ def suite_takeover(args: Args) -> None:
         source = AlipController.for_digit()
         t_switch = 2.0 + 0.037 * seed
         pushes = (Push(1.8, (0.0, 80.0, 0.0), 0.15),) if seed % 2 else ()
-        run_episode(sim, source, Command(0.3, 0.0, 0.0), t_switch, pushes, state=perturbed_start(sim, seed))
+        run_episode(sim, source, Command(0.3, 0.0, 0.0), t_switch, pushes, state=perturbed_stand(sim, seed))
         state = sim.state()
         fresh = AlipController.for_digit()
         episode = run_episode(sim, fresh, Command(0.3, 0.0, 0.0), 6.0, state=state)

@@ -25,10 +25,9 @@ from pathlib import Path
 import numpy as np
 
 from mbc.errors import ConfigError
-from mbc.rollout import Episode, run_episode
+from mbc.rollout import Episode, perturbed_stand, run_episode, tracked
 from mbc.sim import DigitSim
 from mbc.types import Command, Controller
-from robots.digit import constants as digit
 
 PROTOCOLS = ("flat", "uphill_12", "uphill_16", "uphill_20", "downhill_8", "downhill_12", "uneven_4", "max_velocity")
 RUN_UP_M, INCLINE_M = 1.5, 5.0
@@ -57,17 +56,6 @@ def _parametric(name: str) -> bool:
     return kind in ("uphill", "downhill", "uneven") and value.replace(".", "", 1).isdigit()
 
 
-def _start(sim: DigitSim, seed: int):
-    rng = np.random.default_rng(seed)
-    state = sim.reset(seed=seed)
-    state.q = state.q + rng.uniform(-0.02, 0.02, digit.NUM_JOINTS)
-    return state
-
-
-def _within(measured: float, commanded: float) -> bool:
-    return abs(measured - commanded) <= max(0.1 * abs(commanded), 0.05)
-
-
 def run_protocol(job: tuple[str, str, int]) -> dict:
     """One (controller, protocol, seed) episode and its figures."""
     spec, protocol, seed = job
@@ -78,14 +66,14 @@ def run_protocol(job: tuple[str, str, int]) -> dict:
         outcomes = []
         for command in (Command(0.5), Command(0.0, 0.2), Command(0.0, 0.0, 0.5)):
             sim = DigitSim(seed=seed)
-            episode = run_episode(sim, controller, command, 10.0, state=_start(sim, seed))
+            episode = run_episode(sim, controller, command, 10.0, state=perturbed_stand(sim, seed))
             mean = episode.mean_velocity(since_s=3.0)
-            outcomes.append(not episode.fell and all(_within(m, c) for m, c in zip(mean, command.as_array())))
+            outcomes.append(not episode.fell and all(tracked(m, c) for m, c in zip(mean, command.as_array())))
         return {"success": all(outcomes), "fell": False, "metric": float(np.mean(outcomes))}
     if kind in ("uphill", "downhill"):
         angle = float(value) * (1 if kind == "uphill" else -1)
         sim = DigitSim("slope", seed=seed, angle_deg=angle, run_up_m=RUN_UP_M, length_m=INCLINE_M)
-        episode = run_episode(sim, controller, Command(0.5), 30.0, state=_start(sim, seed))
+        episode = run_episode(sim, controller, Command(0.5), 30.0, state=perturbed_stand(sim, seed))
         x = np.asarray(episode.base_pos)[:, 0]
         on_incline = (x > RUN_UP_M + 0.5) & (x < RUN_UP_M + INCLINE_M - 0.5)
         speed = np.asarray(episode.heading_velocity())[on_incline, 0].mean() if on_incline.sum() > 100 else np.nan
@@ -93,12 +81,12 @@ def run_protocol(job: tuple[str, str, int]) -> dict:
                 "metric": float(100 * abs(speed - 0.5) / 0.5)}
     if kind == "uneven":
         sim = DigitSim("uneven", seed=seed, amplitude=float(value) / 100)
-        episode = run_episode(sim, controller, Command(0.4), 20.0, state=_start(sim, seed))
+        episode = run_episode(sim, controller, Command(0.4), 20.0, state=perturbed_stand(sim, seed))
         return {"success": not episode.fell, "fell": episode.fell, "metric": float(episode.base_pos[-1][0])}
     if protocol == "max_velocity":
         sim = DigitSim(seed=seed)
         ramp = lambda t: Command(min(0.5 + 1.1 * t / 25.0, 1.6))  # noqa: E731
-        episode = run_episode(sim, controller, ramp, 27.0, state=_start(sim, seed))
+        episode = run_episode(sim, controller, ramp, 27.0, state=perturbed_stand(sim, seed))
         return {"success": True, "fell": episode.fell, "metric": sustained_velocity(episode)}
     raise ConfigError(f"unknown protocol {protocol!r}")
 

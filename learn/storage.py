@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mbc.errors import ConfigError
+
 _SHARD = re.compile(r"shard_(\d{5})\.npz$")
 
 
@@ -53,7 +55,7 @@ class LabelledDataset:
             visited: int) -> None:
         """Write iteration's shard atomically, then add it to memory; `visited` counts the rollout's states."""
         if not (len(observations) == len(actions) == len(monitors)):
-            raise ValueError("observations, actions and monitors must have the same length")
+            raise ConfigError("observations, actions and monitors must have the same length")
         arrays = {"observations": observations.astype(np.float32), "actions": actions.astype(np.float32),
                   "monitors": monitors.astype(np.float32), "visited": np.array(visited)}
         atomic_write(self.shard_path(iteration), lambda file: np.savez(file, **arrays))
@@ -81,5 +83,5 @@ class LabelledDataset:
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(observations, actions, monitors) of every sample in memory, concatenated."""
         if not self.observations:
-            raise ValueError("the dataset is empty")
+            raise ConfigError("the dataset is empty")
         return np.concatenate(self.observations), np.concatenate(self.actions), np.concatenate(self.monitors)

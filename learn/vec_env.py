@@ -30,6 +30,7 @@ from learn.config import EnvConfig
 from learn.curriculum import TerrainCurriculum
 from learn.env import MONITOR_NAMES, WalkEnv
 from learn.policy import ActorCritic
+from mbc.errors import ConfigError
 
 TIMING_PARTS = ("expert", "physics", "policy", "total")
 
@@ -55,9 +56,9 @@ class RolloutRequest:
 
     def __post_init__(self) -> None:
         if self.policy is None and not (self.label_every == 1 and self.beta == 1.0):
-            raise ValueError("without a policy the expert must act: label_every=1 and beta=1")
+            raise ConfigError("without a policy the expert must act: label_every=1 and beta=1")
         if self.label_every < 0 or self.steps <= 0:
-            raise ValueError("label_every must be >= 0 and steps positive")
+            raise ConfigError("label_every must be >= 0 and steps positive")
 
 
 @dataclass

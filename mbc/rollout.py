@@ -161,6 +161,23 @@ class Episode:
         }
 
 
+def tracked(measured: float, commanded: float) -> bool:
+    """Whether a mean velocity follows its command: within 10% of it or 0.05 (m/s or rad/s), the
+    tolerance of the benchmarks and evaluations."""
+    return abs(measured - commanded) <= max(0.1 * abs(commanded), 0.05)
+
+
+def perturbed_stand(sim: DigitSim, seed: int, joint_noise_rad: float = 0.02, velocity_noise_mps: float = 0.05) -> RobotState:
+    """`sim` reset to the stand with uniform noise on the joint angles and the horizontal base velocity,
+    seeded: the start of the benchmarks' and evaluations' runs (the simulator is left in that state)."""
+    rng = np.random.default_rng(seed)
+    state = sim.reset(seed=seed)
+    state.q = state.q + rng.uniform(-joint_noise_rad, joint_noise_rad, len(state.q))
+    state.base_linvel = np.r_[rng.uniform(-velocity_noise_mps, velocity_noise_mps, 2), 0.0]
+    sim.set_state(state)
+    return sim.state()
+
+
 def check_duration(duration_s: float, dt: float) -> None:
     """Raise `ConfigError` unless `duration_s` is a finite number of seconds of at least one period `dt`."""
     if not (isinstance(duration_s, numbers.Real) and math.isfinite(duration_s) and duration_s >= dt):
