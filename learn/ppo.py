@@ -105,6 +105,11 @@ class PpoConfig:
             raise ConfigError("need epochs, minibatches >= 1, clip in (0, 1) and gamma in (0, 1]")
 
 
+def flat(array: np.ndarray) -> torch.Tensor:
+    """(steps, n_envs, ...) rollout array as a (steps * n_envs, ...) tensor."""
+    return torch.as_tensor(array).reshape(-1, *np.shape(array)[2:])
+
+
 class Ppo:
     """The update of the actor-critic from one batch of rollouts."""
 
@@ -127,11 +132,9 @@ class Ppo:
     def update(self, rollout: Rollout, critic_only: bool = False) -> dict[str, float]:
         """Epochs of minibatch updates on `rollout`; returns the mean of each loss term and statistics."""
         cfg = self.config
-        as_tensor = lambda a: torch.as_tensor(np.asarray(a))  # noqa: E731
         advantages, returns = generalized_advantages(
-            as_tensor(rollout.rewards), as_tensor(rollout.values), as_tensor(rollout.terminated),
-            as_tensor(rollout.truncated), as_tensor(rollout.last_values), cfg.gamma, cfg.lam)
-        flat = lambda a: as_tensor(a).reshape(-1, *np.shape(a)[2:])  # noqa: E731
+            torch.as_tensor(rollout.rewards), torch.as_tensor(rollout.values), torch.as_tensor(rollout.terminated),
+            torch.as_tensor(rollout.truncated), torch.as_tensor(rollout.last_values), cfg.gamma, cfg.lam)
         obs, actions, old_log_probs = flat(rollout.observations), flat(rollout.actions), flat(rollout.log_probs)
         old_values, returns, advantages = flat(rollout.values), returns.reshape(-1), advantages.reshape(-1)
         advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
@@ -152,11 +155,11 @@ class Ppo:
                 loss.backward()
                 torch.nn.utils.clip_grad_norm_(self.model.parameters(), cfg.max_grad_norm)
                 self.optimizer.step()
-                kl = self._kl(old_mean[batch], old_std, obs[batch])
-                if not critic_only:
-                    self._adapt_learning_rate(kl)
-                for name, value in [*terms.items(), ("kl", kl)]:
-                    sums[name] = sums.get(name, 0.0) + float(value.detach() if torch.is_tensor(value) else value)
+                if not critic_only:  # the actor moved: adapt its learning rate to how far
+                    terms["kl"] = torch.tensor(self._kl(old_mean[batch], old_std, obs[batch]))
+                    self._adapt_learning_rate(float(terms["kl"]))
+                for name, value in terms.items():
+                    sums[name] = sums.get(name, 0.0) + float(value.detach())
                 count += 1
         stats = {name: value / count for name, value in sums.items()}
         stats |= {"learning_rate": self.learning_rate, "action_std": float(self.model.log_std.detach().exp().mean()),
