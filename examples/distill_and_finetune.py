@@ -59,7 +59,7 @@ def main(args: Args) -> None:
         distill_dir = args.run_dir / "distill"
         resume = args.resume and (distill_dir / "training_state.pt").exists()
         init = DaggerRunner(DistillConfig(run_dir=distill_dir, seed=args.seed, resume=resume, workers=args.workers)).learn()
-    iterations = args.iterations or {"default": 1200, "paper": 10_000}[args.preset]
+    iterations = args.iterations or {"default": FinetuneConfig.iterations, "paper": 10_000}[args.preset]
     finetune_dir = args.run_dir / "finetune"
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init,
                             iterations=iterations, workers=args.workers,

@@ -68,7 +68,7 @@ class VelocityCurriculum:
     step_mps: float = 0.1
     threshold: float = 0.7
     """Mean lin_vel_tracking reward (in [0, 1]) above which the range widens."""
-    every_iterations: int = 50
+    every_iterations: int = 12
     """The range is reconsidered every this many iterations (the policy first learns the current range)."""
 
     def next_max(self, current_mps: float, tracking: float, iteration: int) -> float:

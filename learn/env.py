@@ -122,8 +122,6 @@ class WalkEnv:
         self.sim = DigitSim(name, seed=self.index, **params)
         self.terrain = spec
         self._feet = [self.sim.model.body(f).id for f in digit.FOOT_LINKS]
-        self._foot_boxes = [self.sim.model.geom(f"{f}_box").id for f in digit.FOOT_LINKS]
-        self._pelvis = self.sim.model.body(digit.BASE_LINK).id
 
     # --- episode --------------------------------------------------------------------------------
 
@@ -241,11 +239,10 @@ class WalkEnv:
 
     def _update_monitors(self) -> None:
         """CoM vertical velocity, CoM height above the stance sole minus the ALIP height, stance sole speed."""
-        model, data = self.sim.model, self.sim.data
-        mujoco.mj_subtreeVel(model, data)
         stance = self.builder.clock.stance
-        sole_z = data.geom_xpos[self._foot_boxes[stance], 2] - 0.5 * digit.FOOT_SIZE_M[2]
-        mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_BODY, self._feet[stance], self._velocity, 0)
-        self.monitors = np.array([data.subtree_linvel[self._pelvis, 2],
-                                  data.subtree_com[self._pelvis, 2] - sole_z - AlipControllerConfig.nominal_com_height_m,
+        com, com_velocity = self.sim.com_state()
+        sole_z = self.sim.sole_positions()[stance, 2]
+        mujoco.mj_objectVelocity(self.sim.model, self.sim.data, mujoco.mjtObj.mjOBJ_BODY, self._feet[stance],
+                                 self._velocity, 0)
+        self.monitors = np.array([com_velocity[2], com[2] - sole_z - AlipControllerConfig.nominal_com_height_m,
                                   math.hypot(self._velocity[3], self._velocity[4])])

@@ -45,12 +45,14 @@ class FinetuneConfig:
     """Continue the run in `run_dir` from its last checkpoint."""
     init_policy: Path | None = DISTILLED
     """The pre-trained policy to start from (ignored by purerl, which starts from scratch)."""
-    iterations: int = 1200
-    """PPO iterations (about 1.3 s each with 2 workers x 8 environments: 26 minutes)."""
-    steps_per_env: int = 100
-    """Ticks per environment per iteration (0.5 s)."""
-    label_every: int = 1
-    """PPF and FullReg: the expert labels every k-th tick (its clock still sees every tick)."""
+    iterations: int = 600
+    """PPO iterations (about 2.7 s each for PPF with 2 workers x 8 environments: 27 minutes, 3.8 M steps)."""
+    steps_per_env: int = 400
+    """Ticks per environment per iteration (2 s; 6,400 steps per iteration with 16 environments: minibatches
+    of 1,600, where 100 ticks (400 per minibatch) made the actor's updates a random walk)."""
+    label_every: int = 4
+    """PPF and FullReg: the expert labels every k-th tick (its clock still sees every tick); 4 keeps PPO
+    above 3,500 steps/s on 2 cores (`benchmarks/bench_ppo_throughput.py`)."""
     init_log_std: float = -2.0
     """Log standard deviation of the exploration noise at the start (normalized action units)."""
     terrain_curriculum: bool = True

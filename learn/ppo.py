@@ -93,6 +93,9 @@ class PpoConfig:
     """Adam step size of the critic (fixed: the distilled policy comes with an untrained critic)."""
     desired_kl: float = 0.01
     """Adaptive learning rate: divided by 1.5 when an update's KL exceeds twice this, multiplied below half."""
+    learning_rate_bounds: tuple[float, float] = (1e-6, 1e-3)
+    """The adaptive learning rate stays within these (rsl_rl's floor of 1e-5 held the KL of our pre-trained
+    actor at 3-90x its target in every update: the floor, not the rule, set the step)."""
     entropy_coef: float = 0.001
     value_coef: float = 1.0
     max_grad_norm: float = 1.0
@@ -103,6 +106,10 @@ class PpoConfig:
     def __post_init__(self) -> None:
         if self.epochs < 1 or self.minibatches < 1 or not 0 < self.clip < 1 or not 0 < self.gamma <= 1:
             raise ConfigError("need epochs, minibatches >= 1, clip in (0, 1) and gamma in (0, 1]")
+        low, high = self.learning_rate_bounds
+        if not 0 < low <= self.learning_rate <= high:
+            raise ConfigError(f"need 0 < learning_rate_bounds[0] <= learning_rate <= learning_rate_bounds[1], got "
+                              f"{self.learning_rate} within {self.learning_rate_bounds}")
 
 
 def flat(array: np.ndarray) -> torch.Tensor:
@@ -192,8 +199,9 @@ class Ppo:
         return float(kl.mean())
 
     def _adapt_learning_rate(self, kl: float) -> None:
+        low, high = self.config.learning_rate_bounds
         if kl > 2.0 * self.config.desired_kl:
-            self.learning_rate = max(self.learning_rate / 1.5, 1e-5)
+            self.learning_rate = max(self.learning_rate / 1.5, low)
         elif kl < 0.5 * self.config.desired_kl:
-            self.learning_rate = min(self.learning_rate * 1.5, 1e-2)
+            self.learning_rate = min(self.learning_rate * 1.5, high)
         self.optimizer.param_groups[0]["lr"] = self.learning_rate  # the actor's

@@ -73,12 +73,25 @@ def test_stairs_and_uneven_heights():
 def test_course_levels_get_harder():
     sim = DigitSim("course", num_levels=3, max_slope_deg=12.0, max_amplitude=0.03, max_step_height=0.06)
     sim.reset()
-    xs = np.arange(0.0, 45.0, 0.05)
+    starts = sim.terrain.level_starts_m()
+    xs = np.arange(0.0, starts[-1], 0.05)
     z = np.array([sim.terrain_height(x, 0.0) for x in xs])
     grade = np.abs(np.diff(z)) / 0.05
-    level_length = (xs[-1] - 2.0) / 3
-    first, last = (xs[1:] > 2) & (xs[1:] < 2 + level_length), xs[1:] > 2 + 2 * level_length
+    first, last = (xs[1:] > starts[0]) & (xs[1:] < starts[1]), xs[1:] > starts[2]
     assert grade[last].max() > grade[first].max()
+
+
+def test_slope_course_levels_are_where_level_starts_says_at_their_angle():
+    sim = DigitSim("course", kind="slope", num_levels=4, max_slope_deg=16.0)
+    sim.reset()
+    starts = sim.terrain.level_starts_m()
+    for level in range(1, 5):
+        xs = np.arange(starts[level - 1] + 0.01, starts[level] - 0.01, 0.02)
+        z = np.array([sim.terrain_height(x, 0.0) for x in xs])
+        assert np.max(np.abs(np.diff(z)) / 0.02) == pytest.approx(np.tan(np.deg2rad(16.0 * level / 4)), rel=0.02)
+        assert abs(z[0]) < 1e-2 and abs(z[-1]) < 1e-2  # up and down again
+    with pytest.raises(ConfigError, match="kind"):
+        DigitSim("course", kind="lava")
 
 
 def test_standing_robot_is_not_fallen_and_lying_robot_is():

@@ -83,8 +83,10 @@ class DigitSim:
         foot_geoms = [self.model.geom(f"{f}_box").id for f in digit.FOOT_LINKS]
         self._is_body_part = (~self._is_terrain) & (self.model.geom_bodyid > 0)
         self._is_body_part[foot_geoms] = False
+        self._foot_geoms = foot_geoms
         self._nominal = {"body_mass": self.model.body_mass.copy(), "body_inertia": self.model.body_inertia.copy(),
-                         "geom_friction": self.model.geom_friction.copy(), "body_ipos": self.model.body_ipos.copy()}
+                         "geom_friction": self.model.geom_friction.copy(), "body_ipos": self.model.body_ipos.copy(),
+                         "dof_frictionloss": self.model.dof_frictionloss.copy()}
         self._ray_groups = np.zeros(6, np.uint8)
         self._ray_groups[TERRAIN_GROUP] = 1
         self._ray_geom = np.zeros(1, np.int32)
@@ -175,6 +177,16 @@ class DigitSim:
         d.time = state.time
         mujoco.mj_forward(self.model, d)
 
+    def com_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """The whole robot's CoM position [m] and linear velocity [m/s], world frame."""
+        mujoco.mj_subtreeVel(self.model, self.data)
+        return self.data.subtree_com[self._pelvis].copy(), self.data.subtree_linvel[self._pelvis].copy()
+
+    def sole_positions(self) -> np.ndarray:
+        """(2, 3) centres of the left and right soles (foot box centre, half its height down the foot's z), world [m]."""
+        down = self.data.geom_xmat[self._foot_geoms].reshape(2, 3, 3)[:, :, 2] * (0.5 * digit.FOOT_SIZE_M[2])
+        return self.data.geom_xpos[self._foot_geoms] - down
+
     @property
     def fallen(self) -> bool:
         """Pelvis too low above the terrain, or a body part other than a foot touching the ground."""
@@ -189,18 +201,20 @@ class DigitSim:
                            | (self._is_terrain[geoms[:, 1]] & self._is_body_part[geoms[:, 0]])))
 
     def terrain_height(self, x: float, y: float) -> float:
-        """Height of the terrain surface at (x, y) [m], by a vertical ray against the terrain geoms."""
+        """Height of the terrain surface at (x, y) [m], by a vertical ray against the terrain geoms (a ray
+        exactly on the shared edge of two terrain boxes misses both: it is cast again 1 um further)."""
         top = 50.0
-        distance = mujoco.mj_ray(self.model, self.data, np.array([x, y, top]), np.array([0.0, 0.0, -1.0]),
-                                 self._ray_groups, 1, -1, self._ray_geom)
-        if distance < 0:
-            raise MbcError(f"no terrain below ({x:.2f}, {y:.2f})")
-        return top - distance
+        for dx in (0.0, 1e-6):
+            distance = mujoco.mj_ray(self.model, self.data, np.array([x + dx, y, top]), np.array([0.0, 0.0, -1.0]),
+                                     self._ray_groups, 1, -1, self._ray_geom)
+            if distance >= 0:
+                return top - distance
+        raise MbcError(f"no terrain below ({x:.2f}, {y:.2f})")
 
     # --- randomization hooks -----------------------------------------------------------------------
 
     def set_domain(self, params: DomainParams) -> None:
-        """Set friction, link masses, motor strength, actuator delay and CoM offset (from nominal)."""
+        """Set friction, link masses, motor strength, actuator delay, CoM offset and joint friction (from nominal)."""
         m, nominal = self.model, self._nominal
         scale = np.broadcast_to(np.asarray(params.mass_scale, dtype=float), (m.nbody,))
         m.body_mass[:] = nominal["body_mass"] * scale
@@ -209,6 +223,7 @@ class DigitSim:
         m.body_ipos[self._pelvis] += params.com_offset_m
         m.geom_friction[:] = nominal["geom_friction"]
         m.geom_friction[:, 0] = params.friction
+        m.dof_frictionloss[:] = nominal["dof_frictionloss"] * params.joint_friction_scale
         self._strength = np.broadcast_to(np.asarray(params.motor_strength, dtype=float), (digit.NUM_JOINTS,)).copy()
         delay = int(round(params.delay_s / self.config.timestep_s))
         if delay >= self.config.substeps:

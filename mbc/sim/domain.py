@@ -24,6 +24,8 @@ class DomainParams:
     """Actuator delay: a new command takes effect this long into the control period [s]."""
     com_offset_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
     """Offset of the pelvis CoM in the pelvis frame [m]."""
+    joint_friction_scale: float = 1.0
+    """Scale of the leg joints' dry friction (`robots.digit.constants.FRICTIONLOSS_NM`)."""
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.friction) and self.friction > 0):
@@ -35,5 +37,7 @@ class DomainParams:
             raise ConfigError(f"motor_strength must be a positive scalar or ({NUM_JOINTS},), got {self.motor_strength}")
         if not (np.isfinite(self.delay_s) and self.delay_s >= 0):
             raise ConfigError(f"delay_s must be >= 0, got {self.delay_s}")
+        if not (np.isfinite(self.joint_friction_scale) and self.joint_friction_scale >= 0):
+            raise ConfigError(f"joint_friction_scale must be >= 0, got {self.joint_friction_scale}")
         if np.asarray(self.com_offset_m).shape != (3,):
             raise ConfigError(f"com_offset_m must have shape (3,), got {np.shape(self.com_offset_m)}")

@@ -6,9 +6,11 @@
 * `uneven`: a heightfield with heights in [-amplitude, amplitude], smooth at `wavelength_m`,
   flat near the start.
 * `stairs`: `num_steps` steps of `step_height` up, a landing, and as many down.
-* `course`: `num_levels` levels of increasing difficulty d = k / num_levels, each an uneven patch
-  (d * max_amplitude), a slope up and down (d * max_slope_deg) and three steps up and down
-  (d * max_step_height): the robustness course.
+* `course`: `num_levels` levels of increasing difficulty d = k / num_levels along +x: the robustness
+  course. Each level of the `mixed` kind is an uneven patch (d * max_amplitude), a slope up and down
+  (d * max_slope_deg) and three steps up and down (d * max_step_height); the `slope` and `uneven`
+  kinds keep only their part (the paper's sloped and uneven courses). `Course.level_starts_m` says
+  where each level begins.
 
 The robot starts at the origin, facing +x; every terrain is flat (z = 0) within
 `START_CLEARANCE_M` of it. Terrain geoms are in `TERRAIN_GROUP`.
@@ -99,6 +101,11 @@ class Stairs:
         _require(self.run_up_m >= START_CLEARANCE_M, f"stairs run_up_m must be >= {START_CLEARANCE_M}")
 
 
+COURSE_KINDS = ("mixed", "slope", "uneven")
+_PATCH_M, _SLOPE_M, _FLAT_M = 3.0, 2.5, 1.0
+_COURSE_STEPS, _COURSE_TREAD_M = 3, 0.35
+
+
 @dataclass(frozen=True)
 class Course:
     """Levels of increasing difficulty along +x."""
@@ -108,14 +115,37 @@ class Course:
     max_amplitude: float = 0.04
     max_step_height: float = 0.08
     run_up_m: float = 2.0
+    kind: str = "mixed"
+    """'mixed' (bumps, a slope, steps per level), 'slope' (a slope up and down per level) or 'uneven'."""
 
     def __post_init__(self) -> None:
+        _require(self.kind in COURSE_KINDS, f"course kind must be one of {list(COURSE_KINDS)}, got {self.kind!r}")
         _require(self.num_levels >= 1, f"course num_levels must be >= 1, got {self.num_levels}")
         _require(0 <= self.max_slope_deg < 45, f"course max_slope_deg must be in [0, 45), got {self.max_slope_deg}")
         _require(self.max_amplitude >= 0, f"course max_amplitude must be >= 0, got {self.max_amplitude}")
         _require(0 <= self.max_step_height <= MAX_STEP_HEIGHT_M,
                  f"course max_step_height must be in [0, {MAX_STEP_HEIGHT_M}] m, got {self.max_step_height}")
         _require(self.run_up_m >= START_CLEARANCE_M, f"course run_up_m must be >= {START_CLEARANCE_M}")
+
+    @property
+    def has_patches(self) -> bool:
+        return self.kind in ("mixed", "uneven")
+
+    @property
+    def has_slopes(self) -> bool:
+        return self.kind in ("mixed", "slope")
+
+    @property
+    def level_length_m(self) -> float:
+        """Length of one level along x [m]."""
+        patch = _PATCH_M + _FLAT_M if self.has_patches else 0.0
+        slope = 2 * (_SLOPE_M + _FLAT_M) if self.has_slopes else 0.0
+        stairs = (2 * _COURSE_STEPS - 1) * _COURSE_TREAD_M + _FLAT_M + _FLAT_M if self.kind == "mixed" else 0.0
+        return patch + slope + stairs
+
+    def level_starts_m(self) -> np.ndarray:
+        """(num_levels + 1,) x where each level begins, and where the last one ends [m]."""
+        return self.run_up_m + self.level_length_m * np.arange(self.num_levels + 1)
 
 
 TERRAINS: dict[str, type] = {"flat": Flat, "slope": Slope, "uneven": Uneven, "stairs": Stairs, "course": Course}
@@ -200,23 +230,25 @@ def _stairs(points: list, x: float, height: float, depth: float, num: int, landi
 
 
 def _add_course(spec: mujoco.MjSpec, course: Course, rng: np.random.Generator) -> None:
-    points = [(_X_BACK_M, 0.0), (course.run_up_m, 0.0)]
-    x, patch_len, slope_len, flat_len = course.run_up_m, 3.0, 2.5, 1.0
-    for level in range(1, course.num_levels + 1):
-        d = level / course.num_levels
-        amplitude = d * course.max_amplitude
-        heights = _smooth_noise(rng, amplitude, 0.4, patch_len, 2 * _HALF_WIDTH_M)
-        xs, _ = _grid(patch_len, 2 * _HALF_WIDTH_M, heights.shape)
-        heights *= _ramp(patch_len / 2 - np.abs(xs), 0.3)[None, :]
-        z = points[-1][1]
-        points += [(x, z), (x, z - amplitude), (x + patch_len, z - amplitude), (x + patch_len, z)]
-        _add_heightfield(spec, f"course_{level}", heights, (x + patch_len / 2, 0.0, z), (patch_len / 2, _HALF_WIDTH_M))
-        x += patch_len + flat_len
-        rise = slope_len * np.tan(np.deg2rad(d * course.max_slope_deg))
-        points += [(x, z), (x + slope_len, z + rise), (x + slope_len + flat_len, z + rise),
-                   (x + 2 * slope_len + flat_len, z)]
-        x += 2 * (slope_len + flat_len)
-        x = _stairs(points, x, d * course.max_step_height, 0.35, 3, 1.0) + flat_len
+    points = [(_X_BACK_M, 0.0)]
+    for level, x in enumerate(course.level_starts_m()[:-1], start=1):
+        d, z = level / course.num_levels, points[-1][1]
+        points.append((x, z))
+        if course.has_patches:
+            amplitude = d * course.max_amplitude
+            heights = _smooth_noise(rng, amplitude, 0.4, _PATCH_M, 2 * _HALF_WIDTH_M)
+            xs, _ = _grid(_PATCH_M, 2 * _HALF_WIDTH_M, heights.shape)
+            heights *= _ramp(_PATCH_M / 2 - np.abs(xs), 0.3)[None, :]
+            points += [(x, z - amplitude), (x + _PATCH_M, z - amplitude), (x + _PATCH_M, z)]
+            _add_heightfield(spec, f"course_{level}", heights, (x + _PATCH_M / 2, 0.0, z), (_PATCH_M / 2, _HALF_WIDTH_M))
+            x += _PATCH_M + _FLAT_M
+        if course.has_slopes:
+            rise = _SLOPE_M * np.tan(np.deg2rad(d * course.max_slope_deg))
+            points += [(x, z), (x + _SLOPE_M, z + rise), (x + _SLOPE_M + _FLAT_M, z + rise),
+                       (x + 2 * _SLOPE_M + _FLAT_M, z)]
+            x += 2 * (_SLOPE_M + _FLAT_M)
+        if course.kind == "mixed":
+            _stairs(points, x, d * course.max_step_height, _COURSE_TREAD_M, _COURSE_STEPS, _FLAT_M)
     points.append((_X_FRONT_M, points[-1][1]))
     _add_profile(spec, points)
 
