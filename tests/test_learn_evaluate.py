@@ -1,6 +1,8 @@
-"""Evaluation protocols: metrics on trajectories with known answers, bad input, a short protocol on the
-MBC; the main job end to end in miniature, with its ONNX export checked against torch."""
+"""Evaluation: metrics and gait features on trajectories with known answers, shifts, bad input, every
+protocol on the MBC in a short version with its tables and files; the main job in miniature, with its
+ONNX export checked against torch."""
 
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -10,57 +12,210 @@ import onnxruntime
 import pytest
 import torch
 
-from learn.evaluate import check_protocols, evaluate, sustained_velocity
+from learn.evaluate import check_protocols, controller_labels, evaluate, sustained_velocity, write_outputs
+from learn.evaluate.gait import CYCLE_SAMPLES, gait_distance, gait_features
+from learn.evaluate.metrics import incline_speed_error_pct, levels_completed, mean_ci95, tracking_return
+from learn.evaluate.protocols import HeadingHold, random_commands
+from learn.evaluate.shifts import SHIFTS, SensorNoise, ShiftedSensing, get_shift
 from learn.policy import ActorCritic, load_checkpoint
 from mbc.errors import ConfigError
 from mbc.rollout import Episode
+from mbc.sim import DigitSim
+from mbc.types import Command, JointCommand
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _ramp_episode(speed_of, duration_s=10.0, dt=0.005) -> Episode:
-    """Forward motion at speed_of(t), command ramping 0.5 + 0.1 t."""
-    episode, x = Episode(), 0.0
+def _episode(velocity_of, command_of, duration_s=10.0, dt=0.005, yaw_rate=0.0) -> Episode:
+    """Planar motion at velocity_of(t) in the heading frame, turning at yaw_rate, under command_of(t)."""
+    episode, x = Episode(), np.zeros(3)
     for k in range(int(duration_s / dt)):
         t = k * dt
+        yaw = yaw_rate * t
         episode.time.append(t)
-        episode.base_pos.append(np.array([x, 0.0, 1.0]))
-        episode.base_quat.append(np.array([1.0, 0.0, 0.0, 0.0]))
-        episode.base_linvel.append(np.array([speed_of(t), 0.0, 0.0]))
+        episode.base_pos.append(x.copy())
+        episode.base_quat.append(np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]))
+        vx, vy = velocity_of(t)
+        velocity = np.array([vx * np.cos(yaw) - vy * np.sin(yaw), vx * np.sin(yaw) + vy * np.cos(yaw), 0.0])
+        episode.base_linvel.append(velocity)
         episode.q.append(np.zeros(12))
-        episode.command.append(np.array([0.5 + 0.1 * t, 0.0, 0.0]))
-        episode.command_used.append(np.array([0.5 + 0.1 * t, 0.0, 0.0]))
+        episode.command.append(np.asarray(command_of(t), float))
+        episode.command_used.append(np.asarray(command_of(t), float))
         episode.tick_time_s.append(0.0)
-        x += speed_of(t) * dt
+        x = x + velocity * dt
     return episode
 
 
 def test_sustained_velocity_of_known_trajectories():
-    tracking = _ramp_episode(lambda t: 0.5 + 0.1 * t)
+    ramp = lambda t: (0.5 + 0.1 * t, 0.0, 0.0)  # noqa: E731
+    tracking = _episode(lambda t: (0.5 + 0.1 * t, 0.0), ramp)
     # gait-cycle windows of 0.7 s; the last three whole ones (2 s) start at 7.7 s: the slowest averages 0.5 + 0.1 * 8.05
     assert sustained_velocity(tracking) == pytest.approx(1.305, abs=0.005)
-    stalls = _ramp_episode(lambda t: min(0.5 + 0.1 * t, 0.9))  # stops at 0.9 while the command goes on to 1.5
+    stalls = _episode(lambda t: (min(0.5 + 0.1 * t, 0.9), 0.0), ramp)  # stops at 0.9 while the command goes on
     assert sustained_velocity(stalls) == pytest.approx(0.9, abs=0.03)
 
 
-def test_unknown_protocols_and_non_policies_are_refused_with_the_valid_choices(tmp_path):
+def test_incline_error_and_course_levels_on_known_paths():
+    episode = _episode(lambda t: (0.4, 0.0), lambda t: (0.5, 0.0, 0.0))  # 4 m in 10 s
+    assert incline_speed_error_pct(episode, 1.0, 3.0, 0.5) == pytest.approx(20.0)
+    assert np.isnan(incline_speed_error_pct(episode, 5.0, 9.0, 0.5))  # never got there
+    starts = np.array([2.0, 9.0, 16.0, 23.0])  # three levels of 7 m after a 2 m run-up
+    assert [levels_completed(x, starts) for x in (1.0, 8.9, 9.0, 22.9, 30.0)] == [0, 0, 1, 2, 3]
+
+
+def test_tracking_return_of_perfect_and_of_known_errors():
+    perfect = _episode(lambda t: (0.3, -0.1), lambda t: (0.3, -0.1, 0.0), duration_s=4.0)
+    assert tracking_return(perfect, 0.25, 0.25) == pytest.approx(2.3 * 4.0, rel=1e-3)  # (1.2 + 1.1) per second
+    # 0.1 m/s too slow and turning 0.2 rad/s against a straight command: each reward term at its exp(-e^2 / sigma)
+    off = _episode(lambda t: (0.2, 0.0), lambda t: (0.3, 0.0, 0.0), duration_s=4.0, yaw_rate=0.2)
+    expected = 4.0 * (1.2 * np.exp(-0.01 / 0.25) + 1.1 * np.exp(-0.04 / 0.25))
+    assert tracking_return(off, 0.25, 0.25) == pytest.approx(expected, rel=1e-3)
+    mean, ci = mean_ci95([1.0, 2.0, 3.0, np.nan])
+    assert mean == 2.0 and ci == pytest.approx(1.96 / np.sqrt(3))
+
+
+def _walk(step_length=0.3, width=0.2, duration=0.35, apex=0.1, steps=16, dt=0.005):
+    """Soles and contacts of an ideal walk along +x: foot f touches down at k * duration (k = f mod 2 ...),
+    swings for 0.8 of a step, lands step_length ahead of the other foot."""
+    n = int(steps * duration / dt)
+    time = np.arange(n) * dt
+    soles, contact = np.zeros((n, 2, 3)), np.ones((n, 2), bool)
+    q = np.zeros((n, 12))
+    for foot, y in ((0, width / 2), (1, -width / 2)):
+        landings = [k * duration for k in range(steps + 2) if k % 2 == foot]
+        for i, t in enumerate(time):
+            landed = [s for s in landings if s <= t]
+            last = landed[-1] if landed else -duration
+            x_last = (round(last / duration)) * step_length
+            nxt = last + 2 * duration
+            swing_start = nxt - 0.8 * duration
+            soles[i, foot] = [x_last, y, 0.0]
+            if t >= swing_start:
+                s = (t - swing_start) / (0.8 * duration)
+                soles[i, foot] = [x_last + s * 2 * step_length, y, apex * np.sin(np.pi * s)]
+                contact[i, foot] = False
+    q[:, 0] = np.sin(2 * np.pi * time / (2 * duration))  # one period per gait cycle
+    return time, soles, contact, q
+
+
+def test_gait_features_of_an_ideal_walk():
+    time, soles, contact, q = _walk()
+    features = gait_features(time, soles, contact, q, np.zeros(len(time)), since_s=1.0)
+    assert features.step_length_m == pytest.approx(0.3, abs=1e-6)
+    assert features.step_width_m == pytest.approx(0.2, abs=1e-6)
+    assert features.step_duration_s == pytest.approx(0.35, abs=0.006)
+    assert features.swing_apex_m == pytest.approx(0.1, abs=1e-3)
+    assert features.length_symmetry == pytest.approx(0.0, abs=1e-9)
+    phase = np.linspace(0, 1, CYCLE_SAMPLES)
+    np.testing.assert_allclose(features.joint_cycle[:, 0], np.sin(2 * np.pi * phase), atol=0.02)
+    assert all(v == pytest.approx(0.0, abs=1e-12) for v in gait_distance(features, features).values())
+    longer = gait_features(*_walk(step_length=0.4)[:4], np.zeros(len(time)), since_s=1.0)
+    assert gait_distance(longer, features)["step_length_m"] == pytest.approx(1 / 3, rel=1e-3)
+
+
+class _Recording:
+    dt = 0.005
+
+    def __init__(self):
+        self.seen = []
+
+    def reset(self, state):
+        pass
+
+    def act(self, state, command):
+        self.seen.append(state)
+        return JointCommand.hold(state.q)
+
+
+def test_sensing_shift_hands_the_controller_late_and_noisy_states():
+    sim = DigitSim()
+    state = sim.reset()
+    inner = _Recording()
+    late = ShiftedSensing(inner, SensorNoise(), latency_ticks=2, seed=0)
+    late.reset(state)
+    times = []
+    for k in range(5):
+        state.time = 0.005 * k
+        late.act(state, Command())
+        times.append(inner.seen[-1].time)
+    assert times == pytest.approx([0.0, 0.0, 0.0, 0.005, 0.010])  # two ticks late once two are buffered
+    noisy = ShiftedSensing(_Recording(), SensorNoise(joint_angle_rad=0.02), latency_ticks=0, seed=0)
+    noisy.act(state, Command())
+    error = noisy.controller.seen[-1].q - state.q
+    assert 0 < np.abs(error).max() <= 0.02 and noisy.dt == 0.005  # attributes pass through
+
+
+def test_physical_shifts_change_the_simulator_from_nominal():
+    sim = DigitSim()
+    friction = sim.model.dof_frictionloss.copy()
+    get_shift("joint_friction").apply(sim, _Recording(), seed=0)
+    np.testing.assert_allclose(sim.model.dof_frictionloss, 4 * friction)
+    get_shift("nominal").apply(sim, _Recording(), seed=0)
+    np.testing.assert_allclose(sim.model.dof_frictionloss, friction)
+    masses = sim.model.body_mass.copy()
+    get_shift("link_mass").apply(sim, _Recording(), seed=3)
+    massive = masses > 0
+    ratio = sim.model.body_mass[massive] / masses[massive]
+    assert np.all((ratio >= 0.8) & (ratio <= 1.2)) and ratio.std() > 0.05
+
+
+def test_heading_hold_turns_back_to_plus_x():
+    inner = _Recording()
+    inner.act = lambda state, command: command  # returns the command it was given
+    sim = DigitSim()
+    state = sim.reset()
+    yaw = 0.3
+    state.base_quat = np.array([np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)])
+    assert HeadingHold(inner, gain=1.0).act(state, Command(0.6)).yaw_rate == pytest.approx(-0.3)
+    commands = random_commands(np.random.default_rng(0))
+    assert [t for t, _ in commands] == [0.0, 5.0, 10.0, 15.0]
+
+
+def test_unknown_protocols_shifts_and_non_policies_are_refused_with_the_valid_choices(tmp_path):
     with pytest.raises(ConfigError, match="valid"):
         check_protocols(("flat", "moonwalk"))
-    check_protocols(("uphill_18", "uneven_3.5"))
+    with pytest.raises(ConfigError, match="valid"):
+        check_protocols(("uphill",))  # the angle is needed
+    check_protocols(("uphill_18", "uneven_3.5", "course_slope", "course_uneven_3", "random_velocity_10"))
+    with pytest.raises(ConfigError, match="sensor_latency"):
+        evaluate(["mbc"], ("flat",), seeds=1, workers=1, shifts=("zero_gravity",))
     bogus = tmp_path / "notes.txt"
     bogus.write_text("hello")
     with pytest.raises(ConfigError, match="not a policy checkpoint"):
         evaluate([str(bogus)], ("flat",), seeds=1, workers=1)
-    result = subprocess.run([sys.executable, "-m", "learn.evaluate", "--protocols", "skydive"], capture_output=True,
-                            text=True, cwd=ROOT, timeout=120)
-    assert result.returncode == 2 and "valid" in result.stderr
+    for argv in (["--protocols", "skydive"], ["--controller", str(bogus)]):
+        result = subprocess.run([sys.executable, "-m", "learn.evaluate", *argv], capture_output=True, text=True,
+                                cwd=ROOT, timeout=120)
+        assert result.returncode == 2 and result.stderr.startswith("error:"), result.stderr
+    assert controller_labels(["mbc", "runs/a/policy.pt", "runs/b/policy.pt", "p/ppf.pt"]) == {
+        "mbc": "MBC", "runs/a/policy.pt": "runs/a/policy", "runs/b/policy.pt": "runs/b/policy", "p/ppf.pt": "ppf"}
 
 
-def test_uphill_protocol_on_the_mbc_produces_its_table():
-    results = evaluate(["mbc"], ("uphill_8",), seeds=1, workers=1)
-    row = results.rows[0]
-    assert row["controller"] == "MBC" and row["successes"] == 1 and row["metric"] < 30.0  # within 30% of 0.5 m/s
-    assert "| MBC | uphill_8 | 1/1 |" in results.table()
+def test_every_protocol_runs_on_the_mbc_and_writes_its_tables_and_figures(tmp_path):
+    protocols = ("flat", "course_slope_1", "course_uneven_1", "uphill_8", "downhill_5", "uneven_2",
+                 "random_velocity_1", "max_velocity", "mar", "gait")
+    results = evaluate(["mbc"], protocols, seeds=1, workers=2)
+    rows = {row["protocol"]: row for row in results.rows}
+    assert set(rows) == set(protocols)
+    for easy in ("flat", "course_uneven_1", "uphill_8", "downhill_5", "uneven_2", "gait"):
+        assert rows[easy]["successes"] == 1, easy  # where the MBC walks (its benchmark's cases)
+    assert rows["course_uneven_1"]["metric"] == 1 and rows["course_uneven_1"]["time_to_end_s"] < 130 / 8
+    assert 0.85 < rows["max_velocity"]["metric"] < 1.15  # the MBC follows forward commands up to 1.0 m/s
+    assert rows["mar"]["flat_holds"] > 0.9  # z' stays small on flat ground...
+    assert rows["mar"]["uphill_violated"] > rows["mar"]["flat_violated"]  # ...and grows on the incline
+    gait = rows["gait"]
+    assert 0.1 < gait["step_length_m"] < 0.3 and 0.3 < gait["step_duration_s"] < 0.4 and gait["to_mbc_step_length_m"] == 0
+    assert "| MBC | nominal | 1/1 | 0 |" in results.table("uphill_8")
+    written = {p.name for p in write_outputs(results, tmp_path)}
+    assert {"flat.md", "flat.csv", "results.json", "flat.png", "mar_weights.png", "mar_scatter.png", "gait_cycle.png"} <= written
+    raw = json.loads((tmp_path / "results.json").read_text())["raw"]
+    assert {(r["protocol"], r["seed"], r["shift"]) for r in raw} == {(p, 0, "nominal") for p in protocols}
+
+
+def test_a_protocol_under_every_shift_runs_and_reports_each():
+    results = evaluate(["mbc"], ("uneven_2",), seeds=1, workers=2, shifts=tuple(SHIFTS))
+    assert [row["shift"] for row in results.rows] == list(SHIFTS)
+    assert all(row["runs"] == 1 for row in results.rows)
 
 
 def test_main_job_in_miniature_fine_tunes_and_exports_onnx_that_agrees_with_torch(tmp_path):
@@ -75,9 +230,3 @@ def test_main_job_in_miniature_fine_tunes_and_exports_onnx_that_agrees_with_torc
     onnx_actions = session.run(None, {"observation": observations})[0]
     torch_actions = model.action_mean(torch.as_tensor(observations)).detach().numpy()
     np.testing.assert_allclose(onnx_actions, torch_actions, atol=1e-4)
-
-
-def test_max_velocity_protocol_on_the_mbc_finds_its_command_limit():
-    """The MBC follows forward commands up to 1.0 m/s (its clip): the ramp finds about that."""
-    row = evaluate(["mbc"], ("max_velocity",), seeds=1, workers=1).rows[0]
-    assert 0.85 < row["metric"] < 1.15

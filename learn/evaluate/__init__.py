@@ -1,0 +1,115 @@
+"""The paper's evaluation protocols (and more) for any controller: the MBC or a policy file, in the
+nominal simulator or under a domain shift, in parallel over processes; tables (markdown, CSV), raw
+figures (JSON) and PNG figures.
+
+    python -m learn.evaluate --controllers mbc policies/distilled.pt --protocols uphill_16 max_velocity
+    python -m learn.evaluate --controllers mbc --shifts nominal link_mass sensor_latency --out runs/eval
+
+Protocols: `learn.evaluate.protocols`; shifts: `learn.evaluate.shifts`; metrics: `learn.evaluate.metrics`;
+gait features: `learn.evaluate.gait`.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+from tqdm import tqdm
+
+from learn.evaluate.gait import GaitFeatures, gait_distance
+from learn.evaluate.metrics import sustained_velocity
+from learn.evaluate.protocols import DEFAULT_PROTOCOLS, Job, make_controller, parse_protocol, run_job
+from learn.evaluate.results import Results
+from learn.evaluate.shifts import SHIFTS, get_shift
+from mbc.errors import ConfigError
+
+__all__ = ["DEFAULT_PROTOCOLS", "SHIFTS", "Results", "check_protocols", "controller_labels", "evaluate",
+           "sustained_velocity"]
+
+
+def check_protocols(names: Sequence[str]) -> None:
+    """Raise `ConfigError` listing the valid protocols for any unknown name."""
+    for name in names:
+        parse_protocol(name)
+
+
+def controller_labels(specs: Sequence[str]) -> dict[str, str]:
+    """'MBC' for 'mbc', a policy's file stem, or its path where two stems would be the same."""
+    stems = [s if s == "mbc" else Path(s).stem for s in specs]
+    return {s: "MBC" if s == "mbc" else (stem if stems.count(stem) == 1 else str(Path(s).with_suffix("")))
+            for s, stem in zip(specs, stems)}
+
+
+def evaluate(controllers: Sequence[str], protocols: Sequence[str] = DEFAULT_PROTOCOLS, seeds: int = 5,
+             workers: int | None = None, shifts: Sequence[str] = ("nominal",), progress: bool = False) -> Results:
+    """Every (controller, protocol, seed, shift), in parallel over `workers` processes (default: every core).
+
+    The gait protocol measures each gait's distance from the MBC's on the same seed and shift (the MBC's
+    gait is run for that when 'mbc' is not among the controllers)."""
+    if seeds < 1:
+        raise ConfigError(f"seeds must be >= 1, got {seeds}")
+    check_protocols(protocols)
+    for name in shifts:
+        get_shift(name)
+    for spec in controllers:
+        if spec != "mbc":
+            make_controller(spec)  # a clear error before any work for a path that is not a policy
+    jobs = [Job(spec, protocol, seed, shift) for spec in controllers for shift in shifts for protocol in protocols
+            for seed in range(seeds)]
+    reference = [Job("mbc", "gait", seed, shift) for shift in shifts for seed in range(seeds)
+                 if "gait" in protocols and "mbc" not in controllers]
+    outcomes = _run(jobs + reference, workers or os.cpu_count() or 1, progress)
+    labels = controller_labels(list(controllers))
+    raw = [{"controller": labels[job.controller], "path": job.controller, "protocol": job.protocol, "seed": job.seed,
+            "shift": job.shift, **outcome} for job, outcome in zip(jobs, outcomes)]
+    mbc_gaits = {(job.seed, job.shift): outcome.get("features") for job, outcome in zip(jobs + reference, outcomes)
+                 if job.controller == "mbc" and job.protocol == "gait"}
+    for r in raw:
+        if r["protocol"] == "gait" and r.get("features") and mbc_gaits.get((r["seed"], r["shift"])):
+            distance = gait_distance(_features(r["features"]), _features(mbc_gaits[(r["seed"], r["shift"])]))
+            r.update({f"to_mbc_{k}": v for k, v in distance.items()})
+    return Results(raw)
+
+
+def _features(data: dict) -> GaitFeatures:
+    import numpy as np
+
+    return GaitFeatures(**{**data, "joint_cycle": np.asarray(data["joint_cycle"], float)})
+
+
+def _run(jobs: list[Job], workers: int, progress: bool) -> list[dict]:
+    bar = tqdm(total=len(jobs), desc="evaluating", unit="episode set", disable=not progress)
+    if workers > 1 and len(jobs) > 1:
+        with multiprocessing.get_context("spawn").Pool(min(workers, len(jobs))) as pool:
+            outcomes = []
+            for outcome in pool.imap(run_job, jobs, chunksize=1):
+                outcomes.append(outcome)
+                bar.update()
+    else:
+        outcomes = []
+        for job in jobs:
+            outcomes.append(run_job(job))
+            bar.update()
+    bar.close()
+    return outcomes
+
+
+def write_outputs(results: Results, out_dir: Path, figures: bool = True) -> list[Path]:
+    """Per protocol NAME.md and NAME.csv, results.json with every raw figure and seed, and the PNG figures."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = []
+    for protocol in results.protocols:
+        for suffix, text in ((".md", results.table(protocol) + "\n"), (".csv", results.csv(protocol))):
+            path = out_dir / f"{protocol}{suffix}"
+            path.write_text(text)
+            written.append(path)
+    (out_dir / "results.json").write_text(results.to_json())
+    written.append(out_dir / "results.json")
+    if figures:
+        from learn.evaluate.figures import write_figures
+
+        written += write_figures(results, out_dir)
+    return written

@@ -1,0 +1,38 @@
+"""`python -m learn.evaluate`: the command line of `learn.evaluate`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from learn.evaluate import DEFAULT_PROTOCOLS, SHIFTS, evaluate, write_outputs
+from learn.evaluate.protocols import __doc__ as PROTOCOLS_DOC
+from mbc.errors import ConfigError
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m learn.evaluate", formatter_class=argparse.RawDescriptionHelpFormatter,
+                                     description="Run the evaluation protocols on controllers.", epilog=PROTOCOLS_DOC)
+    parser.add_argument("--controllers", "--controller", nargs="+", default=["mbc"],
+                        help="'mbc' or policy checkpoint paths (default: mbc)")
+    parser.add_argument("--protocols", nargs="+", default=list(DEFAULT_PROTOCOLS), help="default: all of the paper's")
+    parser.add_argument("--shifts", nargs="+", default=["nominal"], help=f"among {list(SHIFTS)} (default: nominal)")
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--workers", type=int, default=None, help="processes (default: every core)")
+    parser.add_argument("--out", type=Path, default=None, help="directory for NAME.md, NAME.csv, results.json, *.png")
+    args = parser.parse_args(argv)
+    try:
+        results = evaluate(args.controllers, args.protocols, args.seeds, args.workers, args.shifts, progress=True)
+    except ConfigError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    print(results.table())
+    if args.out is not None:
+        written = write_outputs(results, args.out)
+        print(f"\nwrote {len(written)} files to {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
