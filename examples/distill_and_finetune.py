@@ -9,7 +9,7 @@ policies on quick protocols, and export the result to ONNX.
     python examples/distill_and_finetune.py --preset paper            # the paper's scale: 10,000 iterations
 
 Outputs in --run-dir: distill/ (with --stage all), finetune/ (config, TensorBoard, checkpoints,
-policy.pt), policy.onnx, evaluation.md.
+policy.pt), policy.onnx, evaluation/ (per protocol a markdown and CSV table and a PNG, results.json).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from typing import Literal
 import tyro
 
 from learn.config import DistillConfig, WorkerConfig
-from learn.evaluate import evaluate
+from learn.evaluate import evaluate, write_outputs
 from learn.export import export_onnx
 from learn.finetune import DISTILLED, FinetuneConfig, FinetuneRunner
 from learn.ppo import Method
@@ -47,7 +47,7 @@ class Args:
     iterations: int | None = None
     """PPO iterations (overrides the preset)."""
     workers: WorkerConfig = field(default_factory=WorkerConfig)
-    evaluation_seeds: int = 3
+    evaluation_seeds: int = 5
     """Seeds per protocol of the final comparison (0: skip it)."""
     seed: int = 0
 
@@ -70,10 +70,10 @@ def main(args: Args) -> None:
     onnx = export_onnx(policy, args.run_dir / "policy.onnx")
     print(f"fine-tuned policy: {policy}; ONNX: {onnx}")
     if args.evaluation_seeds:
-        results = evaluate(["mbc", str(init), str(policy)], QUICK_PROTOCOLS, args.evaluation_seeds, args.workers.workers)
-        table = results.table()
-        (args.run_dir / "evaluation.md").write_text(table + "\n")
-        print(table)
+        results = evaluate(["mbc", str(init), str(policy)], QUICK_PROTOCOLS, args.evaluation_seeds,
+                           args.workers.workers, progress=True)
+        write_outputs(results, args.run_dir / "evaluation")
+        print(results.table())
 
 
 if __name__ == "__main__":

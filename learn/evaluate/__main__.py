@@ -13,7 +13,9 @@ from mbc.errors import ConfigError
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m learn.evaluate", formatter_class=argparse.RawDescriptionHelpFormatter,
-                                     description="Run the evaluation protocols on controllers.", epilog=PROTOCOLS_DOC)
+                                     description="Run the evaluation protocols on controllers.",
+                                     epilog=PROTOCOLS_DOC + "\nShifts (--shifts):\n\n" + "\n".join(
+                                         f"* `{s.name}`: {s.describe}" for s in SHIFTS.values()))
     parser.add_argument("--controllers", "--controller", nargs="+", default=["mbc"],
                         help="'mbc' or policy checkpoint paths (default: mbc)")
     parser.add_argument("--protocols", nargs="+", default=list(DEFAULT_PROTOCOLS), help="default: all of the paper's")
