@@ -32,7 +32,7 @@ def _protocol_bars(results: Results, protocol: str, out_dir: Path) -> Path:
     header, key = FIGURES[figure_kind(protocol)][0]
     rows = [r for r in results.rows if r["protocol"] == protocol]
     labels = [r["controller"] if r["shift"] == "nominal" else f"{r['controller']}\n{r['shift']}" for r in rows]
-    fig, ax = plt.subplots(figsize=(max(4.0, 0.9 * len(rows) + 1.5), 3.2))
+    fig, ax = plt.subplots(figsize=(max(4.5, 0.9 * len(rows) + 1.5), 3.4))
     means = [r[key] for r in rows]
     ax.bar(range(len(rows)), np.nan_to_num(means), yerr=np.nan_to_num([r[f"{key}_ci"] for r in rows]), capsize=3,
            color=["tab:gray" if r["controller"] == "MBC" else "tab:blue" for r in rows])
@@ -41,7 +41,7 @@ def _protocol_bars(results: Results, protocol: str, out_dir: Path) -> Path:
                     fontsize=8, color="white")
     ax.set_xticks(range(len(rows)), labels, fontsize=8)
     ax.set_ylabel(header)
-    ax.set_title(f"{protocol} (bars: mean, whiskers: 95% CI, labels: successes)", fontsize=9)
+    ax.set_title(f"{protocol}: mean and 95% CI\n(successes / runs on the bars)", fontsize=9)
     return _save(fig, out_dir / f"{protocol}.png")
 
 
@@ -57,7 +57,7 @@ def _mar_histograms(results: Results, out_dir: Path) -> Path:
     import matplotlib.pyplot as plt
 
     runs = _mar_runs(results)
-    fig, axes = plt.subplots(1, len(runs), figsize=(3.2 * len(runs), 3.0), squeeze=False, sharey=True)
+    fig, axes = plt.subplots(1, len(runs), figsize=(max(5.0, 3.2 * len(runs)), 3.2), squeeze=False, sharey=True)
     edges = np.linspace(0, 1, 21)
     for ax, (controller, rs) in zip(axes[0], runs.items()):
         for terrain, label, colour in (("flat", "flat", "tab:green"), ("slope", f"uphill {MAR_UPHILL_DEG:g} deg", "tab:red")):
@@ -69,7 +69,7 @@ def _mar_histograms(results: Results, out_dir: Path) -> Path:
         ax.set_xlabel("MAR weight w / w0")
     axes[0][0].set_ylabel("share of ticks")
     axes[0][0].legend(fontsize=8)
-    fig.suptitle("Regions: assumption violated (w < 0.2 w0) | partial | holds (w > 0.8 w0)", fontsize=9)
+    fig.suptitle("MAR weight per tick: violated < 0.2 w0 < partial < 0.8 w0 < holds", fontsize=9)
     return _save(fig, out_dir / "mar_weights.png")
 
 

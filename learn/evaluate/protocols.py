@@ -187,7 +187,7 @@ def _random_velocity(controller, trajectories, seed, shift) -> dict:
         returns.append(tracking_return(episode, sigmas.lin_vel_tracking_sigma, sigmas.ang_vel_tracking_sigma))
         falls += episode.fell
     return {"success": falls == 0, "fell": falls > 0, "metric": float(np.mean(returns)), "returns": returns,
-            "falls": falls}
+            "falls": falls, "fall_share": falls / len(returns)}
 
 
 def _max_velocity(controller, _, seed, shift) -> dict:
