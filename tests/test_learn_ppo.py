@@ -92,6 +92,18 @@ def test_variants_differ_only_in_their_regularizer():
 RegularizerFields = [f.name for f in dataclasses.fields(method_regularizer("ppf"))]
 
 
+def test_learning_rate_stays_within_its_bounds():
+    with pytest.raises(ConfigError, match="learning_rate_bounds"):
+        PpoConfig(learning_rate=1e-5, learning_rate_bounds=(1e-4, 1e-3))
+    ppo = Ppo(ActorCritic(10), PpoConfig(learning_rate=1e-5, learning_rate_bounds=(5e-6, 2e-5)), method_regularizer("ifm"))
+    for kl in (1.0, 1.0, 1.0):
+        ppo._adapt_learning_rate(kl)
+    assert ppo.learning_rate == 5e-6 and ppo.optimizer.param_groups[0]["lr"] == 5e-6
+    for kl in (0.0, 0.0, 0.0, 0.0):
+        ppo._adapt_learning_rate(kl)
+    assert ppo.learning_rate == 2e-5
+
+
 def test_update_terms_per_variant_and_critic_only_leaves_the_actor(rng):
     model = ActorCritic(10)
     n, T = 4, 8
@@ -160,7 +172,10 @@ def test_a_short_ppf_run_improves_the_reward_of_a_degraded_policy(tmp_path):
     env = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0),
                     commands=CommandSampling(vx_mps=(0.3, 0.3), standing_probability=0.0, lateral_probability=0.0,
                                              yaw_probability=0.0))
-    config = dataclasses.replace(_short_run(tmp_path, "ppf", 6), init_policy=degraded, env=env, steps_per_env=100)
+    # six iterations: a learning-rate floor of 1e-5 (at the default 1e-6 the KL rule lets the actor move too
+    # little in six iterations to tell)
+    config = dataclasses.replace(_short_run(tmp_path, "ppf", 6), init_policy=degraded, env=env, steps_per_env=100,
+                                 ppo=PpoConfig(critic_warmup_iterations=1, learning_rate_bounds=(1e-5, 1e-3)))
     before = _evaluation_reward(degraded, env)
     after = _evaluation_reward(FinetuneRunner(config).learn(), env)
     assert after > before + 0.05, (before, after)

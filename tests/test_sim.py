@@ -177,3 +177,26 @@ def test_bad_input_errors_name_valid_choices():
         sim.set_domain(DomainParams(delay_s=0.01))
     with pytest.raises(ConfigError, match="kp"):
         dataclasses.replace(SimConfig(), kp=-np.ones(12))
+
+
+def test_com_velocity_is_the_derivative_of_the_com_and_soles_rest_on_flat_ground():
+    sim = DigitSim()
+    sim.reset()
+    soles = sim.sole_positions()
+    np.testing.assert_allclose(soles[:, 2], 0.0, atol=5e-3)  # standing on z = 0
+    assert soles[0, 1] > 0 > soles[1, 1]  # left, right
+    for _ in range(20):
+        sim.step(JointCommand.hold(digit.Q_STAND))
+    com, velocity = sim.com_state()
+    sim.step(JointCommand.hold(digit.Q_STAND))
+    com_next, velocity_next = sim.com_state()
+    np.testing.assert_allclose((com_next - com) / sim.dt, 0.5 * (velocity + velocity_next), atol=2e-3)
+
+
+def test_joint_friction_scale_applies_and_is_checked():
+    sim = DigitSim()
+    nominal = sim.model.dof_frictionloss.copy()
+    sim.set_domain(DomainParams(joint_friction_scale=2.5))
+    np.testing.assert_allclose(sim.model.dof_frictionloss, 2.5 * nominal)
+    with pytest.raises(ConfigError, match="joint_friction_scale"):
+        DomainParams(joint_friction_scale=-1.0)
