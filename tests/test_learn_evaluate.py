@@ -167,6 +167,7 @@ def test_heading_hold_turns_back_to_plus_x():
     yaw = 0.3
     state.base_quat = np.array([np.cos(yaw / 2), 0, 0, np.sin(yaw / 2)])
     assert HeadingHold(inner, gain=1.0).act(state, Command(0.6)).yaw_rate == pytest.approx(-0.3)
+    assert HeadingHold(inner, stop_beyond_x_m=-1.0).act(state, Command(0.6)) == Command()  # beyond a course's end
     commands = random_commands(np.random.default_rng(0))
     assert [t for t, _ in commands] == [0.0, 5.0, 10.0, 15.0]
 

@@ -118,10 +118,12 @@ def _flat(controller, _, seed, shift) -> dict:
 
 class HeadingHold:
     """Walks a forward command with a yaw rate that turns the heading back to +x: w = -k wrap(yaw),
-    clipped (the courses' heading correction)."""
+    clipped (the courses' heading correction); stands still (a zero command) once the pelvis is beyond
+    `stop_beyond_x_m` (a course's end)."""
 
-    def __init__(self, controller: Controller, gain: float = 1.0, max_rate_radps: float = 0.5) -> None:
-        self.controller, self.gain, self.max_rate = controller, gain, max_rate_radps
+    def __init__(self, controller: Controller, gain: float = 1.0, max_rate_radps: float = 0.5,
+                 stop_beyond_x_m: float = math.inf) -> None:
+        self.controller, self.gain, self.max_rate, self.stop_x = controller, gain, max_rate_radps, stop_beyond_x_m
 
     def __getattr__(self, name: str):
         return getattr(self.controller, name)
@@ -130,6 +132,8 @@ class HeadingHold:
         self.controller.reset(state)
 
     def act(self, state: RobotState, command: Command) -> JointCommand:
+        if state.base_pos[0] > self.stop_x:
+            return self.controller.act(state, Command())
         yaw = wrap_angle(float(yaw_of_quaternion(state.base_quat)))
         rate = float(np.clip(-self.gain * yaw, -self.max_rate, self.max_rate))
         return self.controller.act(state, Command(command.vx, command.vy, rate))
@@ -142,8 +146,8 @@ def _course(kind: str):
             raise ConfigError(f"a course needs at least one level, got {levels}")
         sim, shifted, state = _start("course", seed, shift, controller, kind=kind, num_levels=levels, **COURSE_MAX[kind])
         starts = sim.terrain.level_starts_m()
-        episode = run_episode(sim, HeadingHold(shifted), Command(COURSE_SPEED_MPS), COURSE_S_PER_LEVEL * levels,
-                              state=state)
+        walker = HeadingHold(shifted, stop_beyond_x_m=starts[-1] + 0.5)
+        episode = run_episode(sim, walker, Command(COURSE_SPEED_MPS), COURSE_S_PER_LEVEL * levels, state=state)
         x = episode.arrays("base_pos")[:, 0]
         passed = levels_completed(float(x.max()), starts)
         finished = np.flatnonzero(x >= starts[-1])
