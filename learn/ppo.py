@@ -28,6 +28,7 @@ from learn.policy import ActorCritic
 from learn.vec_env import Rollout
 from mbc.assumptions import MAR_DELTA, MAR_W0
 from mbc.errors import ConfigError
+from mbc.types import CONTROL_PERIOD_S
 
 Method = Literal["ppf", "fullreg", "ifm", "purerl"]
 METHODS: tuple[str, ...] = ("ppf", "fullreg", "ifm", "purerl")
@@ -86,6 +87,10 @@ class PpoConfig:
     """Ratio clip of the surrogate, and of the value change."""
     gamma: float = 0.99
     lam: float = 0.95
+    reward_scale: float = CONTROL_PERIOD_S
+    """Rewards are multiplied by this before the returns (legged_gym's reward x dt): the paper's per-tick
+    rewards (about 1.5) have returns of about 150, which the value clip of 0.2 per update let the
+    critic approach only over hundreds of iterations; scaled, values are about 1."""
     learning_rate: float = 1e-5
     """Adam step size at the start (small: Adam's first steps move every weight of a pre-trained actor
     by about this much at once); the KL rule adapts it."""
@@ -106,6 +111,8 @@ class PpoConfig:
     def __post_init__(self) -> None:
         if self.epochs < 1 or self.minibatches < 1 or not 0 < self.clip < 1 or not 0 < self.gamma <= 1:
             raise ConfigError("need epochs, minibatches >= 1, clip in (0, 1) and gamma in (0, 1]")
+        if not self.reward_scale > 0:
+            raise ConfigError(f"reward_scale must be positive, got {self.reward_scale}")
         low, high = self.learning_rate_bounds
         if not 0 < low <= self.learning_rate <= high:
             raise ConfigError(f"need 0 < learning_rate_bounds[0] <= learning_rate <= learning_rate_bounds[1], got "
@@ -139,8 +146,9 @@ class Ppo:
     def update(self, rollout: Rollout, critic_only: bool = False) -> dict[str, float]:
         """Epochs of minibatch updates on `rollout`; returns the mean of each loss term and statistics."""
         cfg = self.config
+        rewards = cfg.reward_scale * torch.as_tensor(rollout.rewards)
         advantages, returns = generalized_advantages(
-            torch.as_tensor(rollout.rewards), torch.as_tensor(rollout.values), torch.as_tensor(rollout.terminated),
+            rewards, torch.as_tensor(rollout.values), torch.as_tensor(rollout.terminated),
             torch.as_tensor(rollout.truncated), torch.as_tensor(rollout.last_values), cfg.gamma, cfg.lam)
         obs, actions, old_log_probs = flat(rollout.observations), flat(rollout.actions), flat(rollout.log_probs)
         old_values, returns, advantages = flat(rollout.values), returns.reshape(-1), advantages.reshape(-1)

@@ -104,6 +104,38 @@ def test_learning_rate_stays_within_its_bounds():
     assert ppo.learning_rate == 2e-5
 
 
+def _constant_reward_rollout(rng, T=400, n=2, reward=1.5):
+    from learn.vec_env import Rollout
+
+    return Rollout(observations=rng.normal(size=(T, n, 10)).astype(np.float32),
+                   expert_actions=np.zeros((T, n, 24), np.float32), label_valid=np.zeros((T, n), bool),
+                   expert_acted=np.zeros((T, n), bool), actions=np.zeros((T, n, 24), np.float32),
+                   rewards=np.full((T, n), reward, np.float32), terminated=np.zeros((T, n), bool),
+                   truncated=np.zeros((T, n), bool), monitors=np.zeros((T, n, 3), np.float32),
+                   log_probs=np.zeros((T, n), np.float32), values=np.zeros((T, n), np.float32),
+                   last_values=np.zeros(n, np.float32))
+
+
+@pytest.mark.parametrize("reward_scale, learns", [(0.005, True), (1.0, False)])
+def test_scaled_rewards_let_the_clipped_critic_reach_the_returns_in_a_warm_up(rng, reward_scale, learns):
+    """Per-tick rewards of 1.5 (the paper's table) have returns near 1.5 / (1 - gamma) = 150; the value clip
+    (0.2 per iteration) lets a fresh critic close only a sliver of that in 10 warm-up iterations, the
+    returns of rewards x dt (0.75) almost all of it."""
+    torch.manual_seed(0)
+    model = ActorCritic(10)
+    ppo = Ppo(model, PpoConfig(reward_scale=reward_scale), method_regularizer("ifm"))
+    rollout = _constant_reward_rollout(rng)
+    for _ in range(10):  # each iteration's rollout carries the values of the critic that collected it
+        with torch.no_grad():
+            rollout.values = model.value(torch.as_tensor(rollout.observations)).numpy()
+            rollout.last_values = model.value(torch.as_tensor(rollout.observations[-1])).numpy()
+        ppo.update(rollout, critic_only=True)
+    with torch.no_grad():
+        value = float(model.value(torch.as_tensor(rollout.observations[0])).mean())
+    target = reward_scale * 1.5 / (1 - 0.99)  # the bootstrapped return of a constant reward, its value's fixed point
+    assert (abs(value - target) < 0.25 * target) == learns, (value, target)
+
+
 def test_update_terms_per_variant_and_critic_only_leaves_the_actor(rng):
     model = ActorCritic(10)
     n, T = 4, 8
