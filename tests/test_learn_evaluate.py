@@ -208,7 +208,9 @@ def test_every_protocol_runs_on_the_mbc_and_writes_its_tables_and_figures(tmp_pa
     assert 0.1 < gait["step_length_m"] < 0.3 and 0.3 < gait["step_duration_s"] < 0.4 and gait["to_mbc_step_length_m"] == 0
     assert "| MBC | nominal | 1/1 | 0 |" in results.table("uphill_8")
     written = {p.name for p in write_outputs(results, tmp_path)}
-    assert {"flat.md", "flat.csv", "results.json", "flat.png", "mar_weights.png", "mar_scatter.png", "gait_cycle.png"} <= written
+    assert {"flat.md", "flat.csv", "results.json", "summary.md", "flat.png", "mar_weights.png", "mar_scatter.png",
+            "gait_cycle.png"} <= written
+    assert "| uphill_8 (speed error [% of 0.5 m/s]) | 1/1, " in results.summary()
     raw = json.loads((tmp_path / "results.json").read_text())["raw"]
     assert {(r["protocol"], r["seed"], r["shift"]) for r in raw} == {(p, 0, "nominal") for p in protocols}
 

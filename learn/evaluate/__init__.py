@@ -107,7 +107,9 @@ def write_outputs(results: Results, out_dir: Path, figures: bool = True) -> list
             path.write_text(text)
             written.append(path)
     (out_dir / "results.json").write_text(results.to_json())
-    written.append(out_dir / "results.json")
+    shifts = list(dict.fromkeys(r["shift"] for r in results.raw))
+    (out_dir / "summary.md").write_text("\n\n".join(f"### {shift}\n\n{results.summary(shift)}" for shift in shifts) + "\n")
+    written += [out_dir / "results.json", out_dir / "summary.md"]
     if figures:
         from learn.evaluate.figures import write_figures
 

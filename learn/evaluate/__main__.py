@@ -30,6 +30,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {error}", file=sys.stderr)
         return 2
     print(results.table())
+    for shift in args.shifts:
+        print(f"\n### At a glance ({shift})\n\n{results.summary(shift)}")
     if args.out is not None:
         written = write_outputs(results, args.out)
         print(f"\nwrote {len(written)} files to {args.out}")

@@ -78,6 +78,19 @@ class Results:
                          f"{row['falls']} | " + " | ".join(cells) + " |")
         return "\n".join(lines)
 
+    def summary(self, shift: str = "nominal") -> str:
+        """Markdown, one row per protocol and one column per controller: successes / runs and the
+        protocol's first figure (the comparison at a glance)."""
+        rows = [r for r in self.rows if r["shift"] == shift]
+        controllers = list(dict.fromkeys(r["controller"] for r in rows))
+        lines = ["| protocol (figure) | " + " | ".join(controllers) + " |", "|---|" + "---|" * len(controllers)]
+        for protocol in self.protocols:
+            header, key = FIGURES[figure_kind(protocol)][0]
+            cells = {r["controller"]: f"{r['successes']}/{r['runs']}, {_mean_ci(r[key], r[f'{key}_ci'])}"
+                     for r in rows if r["protocol"] == protocol}
+            lines.append(f"| {protocol} ({header}) | " + " | ".join(cells.get(c, "") for c in controllers) + " |")
+        return "\n".join(lines)
+
     def csv(self, protocol: str) -> str:
         rows = [r for r in self.rows if r["protocol"] == protocol]
         out = io.StringIO()
