@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mbc.errors import ConfigError
+from mbc.errors import ConfigError, MbcError
 from mbc.geometry import yaw_of_quaternion, yaw_rotation
 from mbc.sim import DigitSim
 from mbc.types import Command, Controller, JointCommand, RobotState
@@ -89,6 +89,8 @@ class Episode:
     """The controller's `last_diagnostics` per tick, where it has them."""
     fell: bool = False
     fall_time_s: float = float("nan")
+    left_terrain: bool = False
+    """The robot walked off the edge of a bounded terrain (a fall: there is no ground beyond it)."""
 
     def arrays(self, name: str) -> np.ndarray:
         return np.asarray(getattr(self, name))
@@ -228,7 +230,11 @@ def run_episode(sim: DigitSim, controller: Controller, commands: CommandSchedule
         state = sim.step(action)
         if on_tick is not None:
             on_tick(state, action)
-        if sim.fallen:
+        try:
+            fallen = sim.fallen
+        except MbcError:  # no terrain below the pelvis: beyond the edge of a bounded terrain
+            episode.left_terrain, fallen, stop_on_fall = True, True, True
+        if fallen:
             episode.fell, episode.fall_time_s = True, state.time - start_time
             if stop_on_fall:
                 break

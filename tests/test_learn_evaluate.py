@@ -19,7 +19,7 @@ from learn.evaluate.protocols import HeadingHold, random_commands
 from learn.evaluate.shifts import SHIFTS, SensorNoise, ShiftedSensing, get_shift
 from learn.policy import ActorCritic, load_checkpoint
 from mbc.errors import ConfigError
-from mbc.rollout import Episode
+from mbc.rollout import Episode, run_episode
 from mbc.sim import DigitSim
 from mbc.types import Command, JointCommand
 
@@ -213,6 +213,30 @@ def test_every_protocol_runs_on_the_mbc_and_writes_its_tables_and_figures(tmp_pa
     assert "| uphill_8 (speed error [% of 0.5 m/s]) | 1/1, " in results.summary()
     raw = json.loads((tmp_path / "results.json").read_text())["raw"]
     assert {(r["protocol"], r["seed"], r["shift"]) for r in raw} == {(p, 0, "nominal") for p in protocols}
+
+
+def test_a_job_that_raises_is_a_failure_with_its_error(monkeypatch):
+    from learn.evaluate import protocols
+
+    def crash(*_):
+        raise RuntimeError("solver exploded")
+
+    monkeypatch.setitem(protocols._RUNNERS, "max_velocity", crash)
+    outcome = protocols.run_job(protocols.Job("mbc", "max_velocity", 0))
+    assert outcome["success"] is False and outcome["error"] == "RuntimeError: solver exploded"
+    with pytest.warns(UserWarning, match="1 of 1 jobs raised"):
+        results = evaluate(["mbc"], ("max_velocity",), seeds=1, workers=1)
+    assert results.rows[0]["successes"] == 0
+
+
+def test_walking_off_a_bounded_terrain_ends_the_episode_as_a_fall():
+    sim = DigitSim("uneven", amplitude=0.01, extent_m=1.0)
+    state = sim.reset()
+    state.base_pos = state.base_pos + np.array([3.0, 0.0, 0.0])  # beyond the 1 m heightfield: no ground below
+    from mbc.controller import AlipController
+
+    episode = run_episode(sim, AlipController.for_digit(), Command(), 1.0, state=state)
+    assert episode.fell and episode.left_terrain and len(episode.time) == 1
 
 
 def test_a_protocol_under_every_shift_runs_and_reports_each():

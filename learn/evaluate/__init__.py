@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -61,6 +62,10 @@ def evaluate(controllers: Sequence[str], protocols: Sequence[str] = DEFAULT_PROT
     reference = [Job("mbc", "gait", seed, shift) for shift in shifts for seed in range(seeds)
                  if "gait" in protocols and "mbc" not in controllers]
     outcomes = _run(jobs + reference, workers or os.cpu_count() or 1, progress)
+    errors = [(job, outcome["error"]) for job, outcome in zip(jobs + reference, outcomes) if "error" in outcome]
+    if errors:
+        warnings.warn(f"{len(errors)} of {len(outcomes)} jobs raised (counted as failures), e.g. {errors[0][0]}: "
+                      f"{errors[0][1]}", stacklevel=2)
     labels = controller_labels(list(controllers))
     raw = [{"controller": labels[job.controller], "path": job.controller, "protocol": job.protocol, "seed": job.seed,
             "shift": job.shift, **outcome} for job, outcome in zip(jobs, outcomes)]

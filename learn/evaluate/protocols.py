@@ -93,11 +93,16 @@ def make_controller(spec: str) -> Controller:
 
 
 def run_job(job: Job) -> dict:
-    """The raw figures of one job: always 'success', 'fell' and 'metric', plus the protocol's own."""
-    warnings.simplefilter("ignore", RuntimeWarning)
+    """The raw figures of one job: always 'success', 'fell' and 'metric', plus the protocol's own; a job
+    that raises is a failure with its 'error' (one episode's crash does not lose the others' results)."""
     kind, value = parse_protocol(job.protocol)
     shift = get_shift(job.shift)
-    return _RUNNERS[kind](make_controller(job.controller), value, job.seed, shift)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # the controllers' caught solver warnings
+        try:
+            return _RUNNERS[kind](make_controller(job.controller), value, job.seed, shift)
+        except Exception as error:  # reported with the results, not raised
+            return {"success": False, "fell": False, "metric": math.nan, "error": f"{type(error).__name__}: {error}"}
 
 
 def _start(terrain: str, seed: int, shift: Shift, controller: Controller, **terrain_params):

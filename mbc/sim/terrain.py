@@ -29,7 +29,7 @@ from mbc.robot import CONTACT_FRICTION, GROUND_CONAFFINITY, GROUND_CONTYPE
 
 TERRAIN_GROUP = 3
 START_CLEARANCE_M = 0.8
-_X_BACK_M, _X_FRONT_M, _HALF_WIDTH_M = -20.0, 80.0, 10.0
+_X_BACK_M, _X_FRONT_M, _HALF_WIDTH_M = -20.0, 80.0, 25.0
 _BOX_THICKNESS_M = 1.0
 _RGBA = (0.55, 0.6, 0.55, 1.0)
 MAX_STEP_HEIGHT_M = 0.3
@@ -103,6 +103,8 @@ class Stairs:
 
 COURSE_KINDS = ("mixed", "slope", "uneven")
 _PATCH_M, _SLOPE_M, _FLAT_M = 3.0, 2.5, 1.0
+_PATCH_HALF_WIDTH_M = 10.0
+"""Half-width of a course's bumpy patches [m]; beyond them lies the flat floor of the patch's pit."""
 _COURSE_STEPS, _COURSE_TREAD_M = 3, 0.35
 
 
@@ -236,11 +238,12 @@ def _add_course(spec: mujoco.MjSpec, course: Course, rng: np.random.Generator) -
         points.append((x, z))
         if course.has_patches:
             amplitude = d * course.max_amplitude
-            heights = _smooth_noise(rng, amplitude, 0.4, _PATCH_M, 2 * _HALF_WIDTH_M)
-            xs, _ = _grid(_PATCH_M, 2 * _HALF_WIDTH_M, heights.shape)
+            heights = _smooth_noise(rng, amplitude, 0.4, _PATCH_M, 2 * _PATCH_HALF_WIDTH_M)
+            xs, _ = _grid(_PATCH_M, 2 * _PATCH_HALF_WIDTH_M, heights.shape)
             heights *= _ramp(_PATCH_M / 2 - np.abs(xs), 0.3)[None, :]
             points += [(x, z - amplitude), (x + _PATCH_M, z - amplitude), (x + _PATCH_M, z)]
-            _add_heightfield(spec, f"course_{level}", heights, (x + _PATCH_M / 2, 0.0, z), (_PATCH_M / 2, _HALF_WIDTH_M))
+            _add_heightfield(spec, f"course_{level}", heights, (x + _PATCH_M / 2, 0.0, z),
+                            (_PATCH_M / 2, _PATCH_HALF_WIDTH_M))
             x += _PATCH_M + _FLAT_M
         if course.has_slopes:
             rise = _SLOPE_M * np.tan(np.deg2rad(d * course.max_slope_deg))
