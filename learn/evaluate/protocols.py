@@ -5,7 +5,7 @@ Protocol names (parametric ones take a number after the last underscore); what r
 
 * `flat`: 0.5 m/s forward, 0.2 m/s sideways, 0.5 rad/s turning, 10 s each; every command tracked
   (within 10% or 0.05); the fraction tracked.
-* `course_slope[_L]`, `course_uneven[_L]`, `course_mixed[_L]`: 0.6 m/s with heading hold through L levels
+* `course_slope[_L]`, `course_uneven[_L]`, `course_mixed[_L]` (or `course[_L]`): 0.6 m/s with heading hold through L levels
   (default 8) of growing difficulty (slopes up and down to 20 deg, bumps to 6 cm), 130 s for 8 levels;
   every level passed; levels passed, time to the end.
 * `uphill_A`, `downhill_A`: 0.5 m/s up (down) a 5 m incline of A deg; its end reached without a fall;
@@ -43,8 +43,9 @@ from mbc.types import Command, Controller, JointCommand, RobotState
 
 FIXED = ("flat", "max_velocity", "mar", "gait")
 PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uneven": "C cm", "course_slope": "L levels",
-              "course_uneven": "L levels", "course_mixed": "L levels", "random_velocity": "N trajectories"}
-OPTIONAL_NUMBER = ("course_slope", "course_uneven", "course_mixed", "random_velocity")
+              "course_uneven": "L levels", "course_mixed": "L levels", "course": "L levels",
+              "random_velocity": "N trajectories"}
+OPTIONAL_NUMBER = ("course_slope", "course_uneven", "course_mixed", "course", "random_velocity")
 DEFAULT_PROTOCOLS = ("flat", "course_slope", "course_uneven", "uphill_10", "uphill_12", "uphill_14", "uphill_16",
                      "uphill_18", "uphill_20", "uphill_22", "downhill_8", "downhill_10", "downhill_12", "downhill_14",
                      "uneven_4", "random_velocity", "max_velocity", "mar", "gait")
@@ -265,5 +266,6 @@ def _gait(controller, _, seed, shift) -> dict:
 
 
 _RUNNERS = {"flat": _flat, "course_slope": _course("slope"), "course_uneven": _course("uneven"),
-            "course_mixed": _course("mixed"), "uphill": _incline(1), "downhill": _incline(-1), "uneven": _uneven,
-            "random_velocity": _random_velocity, "max_velocity": _max_velocity, "mar": _mar, "gait": _gait}
+            "course_mixed": _course("mixed"), "course": _course("mixed"), "uphill": _incline(1),
+            "downhill": _incline(-1), "uneven": _uneven, "random_velocity": _random_velocity,
+            "max_velocity": _max_velocity, "mar": _mar, "gait": _gait}
