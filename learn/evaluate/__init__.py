@@ -113,7 +113,11 @@ def write_outputs(results: Results, out_dir: Path, figures: bool = True) -> list
             written.append(path)
     (out_dir / "results.json").write_text(results.to_json())
     shifts = list(dict.fromkeys(r["shift"] for r in results.raw))
-    (out_dir / "summary.md").write_text("\n\n".join(f"### {shift}\n\n{results.summary(shift)}" for shift in shifts) + "\n")
+    controllers = list(dict.fromkeys(r["controller"] for r in results.raw))
+    summaries = [f"### {shift}\n\n{results.summary(shift)}" for shift in shifts]
+    if len(shifts) > 1:
+        summaries += [f"### {controller} under each shift\n\n{results.shift_summary(controller)}" for controller in controllers]
+    (out_dir / "summary.md").write_text("\n\n".join(summaries) + "\n")
     written += [out_dir / "results.json", out_dir / "summary.md"]
     if figures:
         from learn.evaluate.figures import write_figures

@@ -81,14 +81,20 @@ class Results:
     def summary(self, shift: str = "nominal") -> str:
         """Markdown, one row per protocol and one column per controller: successes / runs and the
         protocol's first figure (the comparison at a glance)."""
-        rows = [r for r in self.rows if r["shift"] == shift]
-        controllers = list(dict.fromkeys(r["controller"] for r in rows))
-        lines = ["| protocol (figure) | " + " | ".join(controllers) + " |", "|---|" + "---|" * len(controllers)]
+        return self._matrix([r for r in self.rows if r["shift"] == shift], "controller")
+
+    def shift_summary(self, controller: str) -> str:
+        """Markdown, one row per protocol and one column per shift, for one controller (its transfer)."""
+        return self._matrix([r for r in self.rows if r["controller"] == controller], "shift")
+
+    def _matrix(self, rows: list[dict], column: str) -> str:
+        columns = list(dict.fromkeys(r[column] for r in rows))
+        lines = ["| protocol (figure) | " + " | ".join(columns) + " |", "|---|" + "---|" * len(columns)]
         for protocol in self.protocols:
             header, key = FIGURES[figure_kind(protocol)][0]
-            cells = {r["controller"]: f"{r['successes']}/{r['runs']}, {_mean_ci(r[key], r[f'{key}_ci'])}"
+            cells = {r[column]: f"{r['successes']}/{r['runs']}, {_mean_ci(r[key], r[f'{key}_ci'])}"
                      for r in rows if r["protocol"] == protocol}
-            lines.append(f"| {protocol} ({header}) | " + " | ".join(cells.get(c, "") for c in controllers) + " |")
+            lines.append(f"| {protocol} ({header}) | " + " | ".join(cells.get(c, "") for c in columns) + " |")
         return "\n".join(lines)
 
     def csv(self, protocol: str) -> str:
