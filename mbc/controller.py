@@ -32,6 +32,7 @@ from mbc.alip import AlipModel
 from mbc.alip_mpc import AlipMpc, AlipMpcConfig, StepReach
 from mbc.alip_state import AlipState, alip_state
 from mbc.assumptions import AssumptionReport, saturation
+from mbc.command_ramp import CommandRamp
 from mbc.errors import ConfigError
 from mbc.geometry import rotate_z, wrap_angle, yaw_of_quaternion, yaw_of_rotation
 from mbc.ik import IkConfig, IkResult, IkTargets, WholeBodyIK
@@ -50,6 +51,11 @@ _JOINT_SPEED_BOUND = (10 * digit.SPEED_LIMIT_RADPS).tolist()
 """Joint speeds beyond 10x the motors' limits mark a state as implausible [rad/s]."""
 
 
+TURN_ACCEL_LIMIT_MPS2 = 0.3
+"""The controller's limit on |v_xy| |yaw rate|: random commands of 0.45-0.83 m/s^2 fell (fast walking or
+sideways stepping while turning fast; docs/design.md, "Known limits"), 0.4 walked."""
+
+
 @dataclass(frozen=True)
 class AlipControllerConfig:
     """Parameters of the ALIP walking controller."""
@@ -66,6 +72,9 @@ class AlipControllerConfig:
     """Largest lateral step; Digit's ALIP controllers clamp to [0.1, 0.6] m. Wide steps are what
     catches a sideways push (0.45 m caught 5 of 10 pushes of 100 N x 0.2 s, 0.6 m 9 of 10)."""
     max_turn_per_step_rad: float = 0.3
+    command_rates: tuple[float, float, float] = (0.8, 0.8, 1.6)
+    """Largest rate of change of the followed command: vx, vy [m/s^2], yaw rate [rad/s^2]
+    (`mbc.command_ramp`; inf: none)."""
     ground_tilt_deadband_rad: float = 0.07
     """The stance sole's tilt below this (4 deg) reads as flat ground: the foot rocks a little when
     walking, and on bumpy ground a local tilt extrapolated over a step misplaces the landing."""
@@ -83,7 +92,7 @@ class AlipControllerConfig:
     kp: np.ndarray = field(default_factory=lambda: digit.KP_DEFAULT.copy())
     """(12,) joint stiffness of the simulator, for the action-space conversion."""
     kd: np.ndarray = field(default_factory=lambda: digit.KD_DEFAULT.copy())
-    limits: CommandLimits = field(default_factory=CommandLimits)
+    limits: CommandLimits = field(default_factory=lambda: CommandLimits(turn_accel_mps2=TURN_ACCEL_LIMIT_MPS2))
     timing: TimingConfig = field(default_factory=TimingConfig)
     swing: SwingConfig = field(default_factory=SwingConfig)
     ik: IkConfig = field(default_factory=IkConfig)
@@ -156,6 +165,7 @@ class AlipController:
         self.clock = GaitClock(cfg.timing)
         self.ik = WholeBodyIK(cfg.ik, dt=self.dt)
         self.qp = PassivityQp(cfg.qp)
+        self._ramp = CommandRamp(cfg.command_rates, self.dt)
         reach = StepReach(cfg.max_step_length_m, cfg.min_step_width_m, cfg.max_step_width_m)
         self.mpc = AlipMpc(self.alip, cfg.mpc, reach, cfg.timing) if cfg.foot_placement == "mpc" else None
         self._kp, self._kd = np.asarray(cfg.kp, float).tolist(), np.asarray(cfg.kd, float).tolist()
@@ -217,6 +227,7 @@ class AlipController:
             self._plan_weight_shift(state)
         q = np.asarray(state.q, dtype=float)
         self._last_q_des = np.where(np.isfinite(q), q, digit.Q_STAND)
+        self._ramp.reset()
         self.fallback_count = 0
         self._started = True
 
@@ -236,6 +247,7 @@ class AlipController:
             self.reset(state)
         start = time.perf_counter()
         command_used, clipped = self.config.limits.clip(command)
+        command_used = self._ramp(command_used)
         if not self._plausible_state(state):
             return self._fallback(command_used, clipped, start, reason="non-finite or implausible state")
         try:

@@ -88,23 +88,33 @@ class CommandLimits:
     vx_mps: tuple[float, float] = (-0.5, 1.0)
     vy_mps: tuple[float, float] = (-0.3, 0.3)
     yaw_rate_radps: tuple[float, float] = (-0.8, 0.8)
+    turn_accel_mps2: float = math.inf
+    """Largest |v_xy| |yaw rate|, the centripetal acceleration of walking a curve [m/s^2]: beyond it the
+    yaw rate is reduced (the speed is kept)."""
 
     def __post_init__(self) -> None:
         for name in ("vx_mps", "vy_mps", "yaw_rate_radps"):
             low, high = getattr(self, name)
             if not low <= 0.0 <= high:
                 raise ConfigError(f"CommandLimits.{name} must be (low, high) with low <= 0 <= high, got {(low, high)}")
+        if not self.turn_accel_mps2 > 0:
+            raise ConfigError(f"CommandLimits.turn_accel_mps2 must be positive, got {self.turn_accel_mps2}")
 
     def clip(self, command: Command) -> tuple[tuple[float, float, float], bool]:
         """The command clipped to the limits as (vx, vy, yaw_rate), and whether it was clipped."""
         raw = (command.vx, command.vy, command.yaw_rate)
-        clipped = (min(max(raw[0], self.vx_mps[0]), self.vx_mps[1]), min(max(raw[1], self.vy_mps[0]), self.vy_mps[1]),
-                   min(max(raw[2], self.yaw_rate_radps[0]), self.yaw_rate_radps[1]))
+        vx, vy = min(max(raw[0], self.vx_mps[0]), self.vx_mps[1]), min(max(raw[1], self.vy_mps[0]), self.vy_mps[1])
+        yaw_rate = min(max(raw[2], self.yaw_rate_radps[0]), self.yaw_rate_radps[1])
+        speed = math.hypot(vx, vy)
+        if speed * abs(yaw_rate) > self.turn_accel_mps2:
+            yaw_rate = math.copysign(self.turn_accel_mps2 / speed, yaw_rate)
+        clipped = (vx, vy, yaw_rate)
         return clipped, clipped != raw
 
     def describe(self) -> str:
+        turn = f", |v| |yaw rate| <= {self.turn_accel_mps2:g} m/s^2" if math.isfinite(self.turn_accel_mps2) else ""
         return (f"vx {self.vx_mps[0]:g}..{self.vx_mps[1]:g} m/s, vy {self.vy_mps[0]:g}..{self.vy_mps[1]:g} m/s, "
-                f"yaw rate {self.yaw_rate_radps[0]:g}..{self.yaw_rate_radps[1]:g} rad/s")
+                f"yaw rate {self.yaw_rate_radps[0]:g}..{self.yaw_rate_radps[1]:g} rad/s" + turn)
 
 
 @dataclass

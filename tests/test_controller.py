@@ -216,3 +216,18 @@ def test_a_standing_start_shifts_weight_then_steps_without_a_lurch():
     start_sway, gait_sway = max(lateral[:300]), max(lateral[300:])
     assert start_sway < 1.2 * gait_sway  # was 0.63 m/s against a 0.24 m/s sway without the shift
     assert first_step[0] > -0.1 and abs(first_step[1]) < 0.15  # was (-0.24, -0.37): a catch step
+
+
+def test_command_ramp_follows_a_step_at_its_rates():
+    from mbc.command_ramp import CommandRamp
+
+    ramp = CommandRamp((0.8, 0.8, 1.6), dt=0.005)
+    assert ramp((1.0, 0.0, 0.0)) == (1.0, 0.0, 0.0)  # the first command is followed at once
+    followed = [ramp((-0.5, 0.2, -0.8)) for _ in range(400)]
+    steps = np.abs(np.diff(np.array([(1.0, 0.0, 0.0)] + followed), axis=0))
+    assert np.all(steps <= np.array([0.004, 0.004, 0.008]) + 1e-12)
+    reached = [next(k for k, f in enumerate(followed) if abs(f[axis] - target) < 1e-9) + 1
+               for axis, target in enumerate((-0.5, 0.2, -0.8))]
+    assert reached == [375, 50, 100]  # 1.5 m/s at 0.8 m/s^2, 0.2 m/s at 0.8, 0.8 rad/s at 1.6 rad/s^2: ticks of 5 ms
+    ramp.reset()
+    assert ramp((0.3, 0.0, 0.0)) == (0.3, 0.0, 0.0)

@@ -162,3 +162,14 @@ def test_pd_gains_of_controller_and_simulator_must_agree():
         run_episode(stiffer, AlipController.for_digit(), Command(), 0.1)
     run_episode(stiffer, AlipController.for_digit(kp=2 * digit.KP_DEFAULT), Command(), 0.1)  # told: fine
     run_episode(stiffer, AlipController.for_digit(output="torque"), Command(), 0.1)  # no PD conversion
+
+
+def test_turn_acceleration_limit_reduces_the_yaw_rate_and_keeps_the_speed():
+    limits = CommandLimits(turn_accel_mps2=0.3)
+    (vx, vy, yaw_rate), clipped = limits.clip(Command(0.4, -0.3, -0.8))  # |v| = 0.5: 0.4 m/s^2 asked
+    assert (vx, vy) == (0.4, -0.3) and yaw_rate == pytest.approx(-0.6) and clipped
+    assert limits.clip(Command(0.2, 0.0, 0.5)) == ((0.2, 0.0, 0.5), False)  # 0.1 m/s^2: as given
+    assert limits.clip(Command(0.0, 0.0, 0.8)) == ((0.0, 0.0, 0.8), False)  # turning in place
+    assert "0.3 m/s^2" in limits.describe()
+    with pytest.raises(ConfigError, match="turn_accel_mps2"):
+        CommandLimits(turn_accel_mps2=0.0)
