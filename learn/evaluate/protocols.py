@@ -113,15 +113,16 @@ def _start(terrain: str, seed: int, shift: Shift, controller: Controller, **terr
 
 
 def _flat(controller, _, seed, shift) -> dict:
-    outcomes, fell = [], False
+    outcomes, means, fell = [], [], False
     for command in (Command(0.5), Command(0.0, 0.2), Command(0.0, 0.0, 0.5)):
         sim, shifted, state = _start("flat", seed, shift, controller)
         episode = run_episode(sim, shifted, command, 10.0, state=state)
         mean = episode.mean_velocity(since_s=3.0)
         fell |= episode.fell
+        means.append(mean.tolist())
         outcomes.append(not episode.fell and all(tracked(m, c) for m, c in zip(mean, command.as_array())))
     return {"success": all(outcomes), "fell": fell, "metric": float(np.mean(outcomes)), "tracked": outcomes,
-            "mean_velocity": mean.tolist()}
+            "mean_velocities": means}
 
 
 class HeadingHold:
