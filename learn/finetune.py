@@ -45,8 +45,9 @@ class FinetuneConfig:
     """Continue the run in `run_dir` from its last checkpoint."""
     init_policy: Path | None = DISTILLED
     """The pre-trained policy to start from (ignored by purerl, which starts from scratch)."""
-    iterations: int = 600
-    """PPO iterations (about 2.7 s each for PPF with 2 workers x 8 environments: 27 minutes, 3.8 M steps)."""
+    iterations: int = 150
+    """PPO iterations (about 4 s each for PPF with 2 workers x 8 environments: 10 minutes, 960,000 steps;
+    the shipped policies' budget)."""
     steps_per_env: int = 400
     """Ticks per environment per iteration (2 s; 6,400 steps per iteration with 16 environments: minibatches
     of 1,600, where 100 ticks (400 per minibatch) made the actor's updates a random walk)."""
