@@ -162,7 +162,7 @@ def _course(kind: str):
         finished = np.flatnonzero(x >= starts[-1])
         return {"success": bool(passed == levels and not episode.fell), "fell": episode.fell, "metric": float(passed),
                 "levels": levels, "time_to_end_s": float(episode.time[finished[0]]) if len(finished) else float("nan"),
-                "x_reached_m": float(x.max())}
+                "x_reached_m": float(x.max()), "level_length_m": float(starts[1] - starts[0])}
     return run
 
 
