@@ -241,7 +241,7 @@ class WalkEnv:
         """CoM vertical velocity, CoM height above the stance sole minus the ALIP height, stance sole speed."""
         stance = self.builder.clock.stance
         com, com_velocity = self.sim.com_state()
-        sole_z = self.sim.sole_positions()[stance, 2]
+        sole_z = self.sim.sole_position(stance)[2]
         mujoco.mj_objectVelocity(self.sim.model, self.sim.data, mujoco.mjtObj.mjOBJ_BODY, self._feet[stance],
                                  self._velocity, 0)
         self.monitors = np.array([com_velocity[2], com[2] - sole_z - AlipControllerConfig.nominal_com_height_m,

@@ -233,9 +233,9 @@ def run_episode(sim: DigitSim, controller: Controller, commands: CommandSchedule
         try:
             fallen = sim.fallen
         except MbcError:  # no terrain below the pelvis: beyond the edge of a bounded terrain
-            episode.left_terrain, fallen, stop_on_fall = True, True, True
+            episode.left_terrain = fallen = True
         if fallen:
             episode.fell, episode.fall_time_s = True, state.time - start_time
-            if stop_on_fall:
+            if stop_on_fall or episode.left_terrain:  # off the terrain there is nothing left to simulate
                 break
     return episode

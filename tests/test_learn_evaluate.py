@@ -196,6 +196,7 @@ def test_every_protocol_runs_on_the_mbc_and_writes_its_tables_and_figures(tmp_pa
     protocols = ("flat", "course_slope_1", "course_uneven_1", "uphill_8", "downhill_5", "uneven_2",
                  "random_velocity_1", "max_velocity", "mar", "gait")
     results = evaluate(["mbc"], protocols, seeds=1, workers=2)
+    assert [r["error"] for r in results.raw if "error" in r] == []  # a raising job would count as a mere failure
     rows = {row["protocol"]: row for row in results.rows}
     assert set(rows) == set(protocols)
     for easy in ("flat", "uphill_8", "downhill_5", "uneven_2", "gait"):
@@ -244,6 +245,7 @@ def test_walking_off_a_bounded_terrain_ends_the_episode_as_a_fall():
 
 def test_a_protocol_under_every_shift_runs_and_reports_each():
     results = evaluate(["mbc"], ("uneven_2",), seeds=1, workers=2, shifts=tuple(SHIFTS))
+    assert [r["error"] for r in results.raw if "error" in r] == []
     assert [row["shift"] for row in results.rows] == list(SHIFTS)
     assert all(row["runs"] == 1 for row in results.rows)
 

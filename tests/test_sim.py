@@ -182,7 +182,7 @@ def test_bad_input_errors_name_valid_choices():
 def test_com_velocity_is_the_derivative_of_the_com_and_soles_rest_on_flat_ground():
     sim = DigitSim()
     sim.reset()
-    soles = sim.sole_positions()
+    soles = np.array([sim.sole_position(0), sim.sole_position(1)])
     np.testing.assert_allclose(soles[:, 2], 0.0, atol=5e-3)  # standing on z = 0
     assert soles[0, 1] > 0 > soles[1, 1]  # left, right
     for _ in range(20):

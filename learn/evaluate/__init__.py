@@ -17,6 +17,7 @@ import warnings
 from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
 from tqdm import tqdm
 
 from learn.evaluate.gait import GaitFeatures, gait_distance
@@ -79,8 +80,6 @@ def evaluate(controllers: Sequence[str], protocols: Sequence[str] = DEFAULT_PROT
 
 
 def _features(data: dict) -> GaitFeatures:
-    import numpy as np
-
     return GaitFeatures(**{**data, "joint_cycle": np.asarray(data["joint_cycle"], float)})
 
 

@@ -9,6 +9,7 @@ import io
 import json
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 from learn.evaluate.gait import SCALARS
 from learn.evaluate.metrics import mean_ci95
@@ -49,9 +50,10 @@ class Results:
     def protocols(self) -> list[str]:
         return list(dict.fromkeys(r["protocol"] for r in self.raw))
 
-    @property
+    @cached_property
     def rows(self) -> list[dict]:
-        """One aggregated row per (protocol, controller, shift), in order of first appearance."""
+        """One aggregated row per (protocol, controller, shift), in order of first appearance (computed once:
+        `raw` is complete when a `Results` is made)."""
         groups: dict[tuple, list[dict]] = {}
         for r in self.raw:
             groups.setdefault((r["protocol"], r["controller"], r["shift"]), []).append(r)

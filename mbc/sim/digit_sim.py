@@ -182,10 +182,11 @@ class DigitSim:
         mujoco.mj_subtreeVel(self.model, self.data)
         return self.data.subtree_com[self._pelvis].copy(), self.data.subtree_linvel[self._pelvis].copy()
 
-    def sole_positions(self) -> np.ndarray:
-        """(2, 3) centres of the left and right soles (foot box centre, half its height down the foot's z), world [m]."""
-        down = self.data.geom_xmat[self._foot_geoms].reshape(2, 3, 3)[:, :, 2] * (0.5 * digit.FOOT_SIZE_M[2])
-        return self.data.geom_xpos[self._foot_geoms] - down
+    def sole_position(self, foot: int) -> np.ndarray:
+        """(3,) centre of the sole of `foot` (0 left, 1 right): its box centre, half the box's height down the
+        foot's z axis, world [m]."""
+        geom = self._foot_geoms[foot]
+        return self.data.geom_xpos[geom] - (0.5 * digit.FOOT_SIZE_M[2]) * self.data.geom_xmat[geom, 2::3]
 
     @property
     def fallen(self) -> bool:
