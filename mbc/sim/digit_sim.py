@@ -60,23 +60,36 @@ class DigitSim:
     >>> sim = DigitSim("slope", angle_deg=5.0, seed=0)
     >>> state = sim.reset()
     >>> state = sim.step(JointCommand.hold(state.q))
+
+    `robot="digit_closed_chain"` gives Digit's closed-chain leg behind the same interface
+    (`mbc.sim.closed_chain_sim`): a transfer simulator that nothing is tuned or trained on.
     """
 
+    robot_name = "digit"
+    """The name that selects this simulator's robot in `DigitSim(..., robot=NAME)`."""
+
+    def __new__(cls, *args, robot: str = "digit", **kwargs):
+        if cls is DigitSim and robot != cls.robot_name:
+            robots = {sub.robot_name: sub for sub in _robot_simulators()}
+            if robot not in robots:
+                raise ConfigError(f"unknown robot {robot!r}; valid: {sorted(robots)}")
+            cls = robots[robot]
+        return super().__new__(cls)
+
     def __init__(self, terrain: str | TerrainConfig = "flat", *, seed: int = 0, config: SimConfig | None = None,
-                 viewer: bool = False, **terrain_params) -> None:
-        self.config = config or SimConfig()
+                 viewer: bool = False, robot: str = "digit", **terrain_params) -> None:
+        self.config = config or self.default_config()
         self.terrain = make_terrain(terrain, **terrain_params) if isinstance(terrain, str) else terrain
         if not isinstance(terrain, str) and terrain_params:
             raise ConfigError("pass terrain parameters either in a terrain config or as keywords, not both")
         self.rng = np.random.default_rng(seed)
-        spec = digit_mjspec()
+        spec = self._robot_spec()
         spec.option.timestep = self.config.timestep_s
         spec.worldbody.add_light(name="sun", pos=[0, 0, 4], dir=[0, 0.3, -1])
         add_terrain(spec, self.terrain, self.rng)
         self.model: mujoco.MjModel = spec.compile()
         self.data = mujoco.MjData(self.model)
         self.dt = self.config.control_dt_s
-        self.joint_map = JointMap.for_mujoco(self.model)
         self._pelvis = self.model.body(digit.BASE_LINK).id
         self._touch_adr = as_slice([self.model.sensor_adr[self.model.sensor(f"{f}_touch").id] for f in digit.FOOT_LINKS])
         self._is_terrain = self.model.geom_group == TERRAIN_GROUP
@@ -93,9 +106,23 @@ class DigitSim:
         self._strength = np.ones(digit.NUM_JOINTS)
         self._delay_substeps = 0
         self._push_substeps_left = 0
+        self._bind_robot()
         self._set_gains(self.config.kp, self.config.kd)
         self.domain = DomainParams()
         self._viewer = self._open_viewer() if viewer else None
+
+    @classmethod
+    def default_config(cls) -> SimConfig:
+        """The simulation settings this robot uses unless given others."""
+        return SimConfig()
+
+    def _robot_spec(self) -> mujoco.MjSpec:
+        """The robot's MuJoCo spec (before the terrain is added)."""
+        return digit_mjspec()
+
+    def _bind_robot(self) -> None:
+        """Locate the robot's joints in the compiled model."""
+        self.joint_map = JointMap.for_mujoco(self.model)
 
     # --- episode -------------------------------------------------------------------------------
 
@@ -268,3 +295,10 @@ class DigitSim:
         if self._viewer is not None:
             self._viewer.close()
             self._viewer = None
+
+
+def _robot_simulators() -> tuple[type[DigitSim], ...]:
+    """Every simulator selectable by `robot=` (imported here: they subclass `DigitSim`)."""
+    from mbc.sim.closed_chain_sim import ClosedChainDigitSim
+
+    return (DigitSim, ClosedChainDigitSim)

@@ -1,0 +1,195 @@
+"""`ClosedChainDigitSim`: Digit's closed-chain leg behind `DigitSim`'s interface (`robot="digit_closed_chain"`).
+
+Controllers keep the open chain's `RobotState` and `JointCommand`; this simulator translates
+(`mbc.sim.closed_chain_maps`). Each control period:
+
+1. the command map turns `q_des` into motor targets by the loop's inverse kinematics (springs at
+   rest), `qd_des` into motor rates through M^-1 and `tau_ff` into motor torques through M^T, with
+   M = d q_open / d q_motor at the measured state;
+2. at every physics step (0.5 ms) each leg's motors apply
+   tau_m = K_m (q_m,des - q_m) + D_m (qd_m,des - qd_m) + tau_m,ff, clipped to
+   min(tau_max, 2 tau_max (1 - |qd_m| / qd_no-load)) (Agility's motor model: full torque up to half the
+   no-load speed of the facts, none at it), through a delay line of 6 physics steps (3 ms);
+3. the state map turns the closed chain's feet into open-chain joints (foot-pose IK).
+
+Gains (`gains=`): `"open"` (default) reproduces the open chain's joint stiffness and damping in
+motor space, K_m = M^T K_open M and D_m = M^T D_open M (full 6 x 6 per leg), because every
+controller's action is defined by those gains (the MBC encodes its torque as q_des through them, a
+policy's actions are scaled by them); `"facts"` uses roadrunner's diagonal sim-to-real motor gains
+(kp 80-140), which are 8-15x softer and meant for a policy trained on them.
+`springs=False` welds the shin and heel springs; `delay=False` removes the 3 ms torque delay: the
+switches that say which part of the closed chain a controller fails on.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import mujoco
+import numpy as np
+
+from mbc.errors import ConfigError
+from mbc.robot import JointMap, as_slice
+from mbc.sim.closed_chain_maps import ClosedChainLegs, OpenChainLegs, stand_qpos
+from mbc.sim.closed_chain_model import closed_chain_mjspec
+from mbc.sim.digit_sim import DigitSim, SimConfig
+from mbc.types import JointCommand, RobotState
+from robots.digit import closed_chain_constants as cc
+from robots.digit import constants as digit
+
+GAIN_MODES = ("open", "facts")
+_MOTORS = cc.LEG_MOTORS + cc.LEG_MOTORS
+_TORQUE_LIMIT_NM = np.array([m.torque_limit_nm for m in _MOTORS])
+_NO_LOAD_SPEED_RADPS = np.array([m.no_load_speed_radps for m in _MOTORS])
+
+
+class ClosedChainDigitSim(DigitSim):
+    """Simulated closed-chain Digit; see the module docstring. Extra keywords: `gains`, `springs`, `delay`."""
+
+    robot_name = "digit_closed_chain"
+
+    def __init__(self, terrain="flat", *, gains: str = "open", springs: bool = True, delay: bool = True, **kwargs) -> None:
+        if gains not in GAIN_MODES:
+            raise ConfigError(f"unknown gains {gains!r}; valid: {GAIN_MODES}")
+        self.gains, self.springs, self.torque_delay_steps = gains, springs, cc.TORQUE_DELAY_STEPS if delay else 0
+        super().__init__(terrain, **kwargs)
+
+    @classmethod
+    def default_config(cls) -> SimConfig:
+        return SimConfig(timestep_s=cc.TIMESTEP_S)
+
+    def _robot_spec(self) -> mujoco.MjSpec:
+        return closed_chain_mjspec(springs=self.springs)
+
+    def _bind_robot(self) -> None:
+        m = self.model
+        self.legs = ClosedChainLegs(closed_chain_mjspec(springs=self.springs).compile())
+        self.open_legs = OpenChainLegs()
+        motor_joints = m.actuator_trnid[:, 0]
+        self._motor_q = as_slice(m.jnt_qposadr[motor_joints])
+        self._motor_v = as_slice(m.jnt_dofadr[motor_joints])
+        self.joint_map = JointMap(q=self._motor_q, v=self._motor_v)
+        """The motors' columns in qpos and qvel (the joints the simulator drives; not the open chain's)."""
+        self._qpos_command = self.stand_qpos()
+        self._q_open = digit.Q_STAND.copy()
+        self._jacobians = np.tile(np.eye(6), (2, 1, 1))  # M per leg, refreshed by `state`
+        self._targets = (self._qpos_command[self._motor_q].copy(), np.zeros(12), np.zeros(12))
+        self._stiffness, self._damping = np.zeros((12, 12)), np.zeros((12, 12))
+        self._torques: deque[np.ndarray] = deque()
+
+    def stand_qpos(self) -> np.ndarray:
+        """The closed chain in the open chain's stand: loops closed, springs at rest, both feet where the open
+        chain's are at `Q_STAND` (pelvis at the origin)."""
+        return self.legs.solve(stand_qpos(self.legs), self.legs.loop_dofs, self.open_legs.foot_poses(digit.Q_STAND),
+                               strict=True)
+
+    # --- episode -------------------------------------------------------------------------------
+
+    def reset(self, seed: int | None = None) -> RobotState:
+        """The stand of the open chain (same pelvis height, feet flat on the terrain), at rest."""
+        if seed is not None:
+            self.rng = np.random.default_rng(seed)
+        mujoco.mj_resetData(self.model, self.data)
+        mujoco.mj_kinematics(self.model, self.data)
+        self._qpos_command = self.stand_qpos()
+        self.data.qpos[:] = self._qpos_command
+        self.data.qpos[:3] = [0.0, 0.0, self.terrain_height(0.0, 0.0) + digit.PELVIS_HEIGHT_STAND_M + 0.002]
+        self._q_open = digit.Q_STAND.copy()
+        self._push_substeps_left = 0
+        self._torques = deque()
+        mujoco.mj_forward(self.model, self.data)
+        state = self.state()
+        self._command_motors(JointCommand.hold(digit.Q_STAND))
+        return state
+
+    def step(self, command: JointCommand) -> RobotState:
+        """Apply `command` (open-chain joints) for one control period and return the new state."""
+        if not isinstance(command, JointCommand):
+            raise ConfigError(f"step expects a JointCommand, got {type(command).__name__}")
+        self._command_motors(command)
+        delay = self.torque_delay_steps + self._delay_substeps  # the domain's delay adds to the motors'
+        while len(self._torques) != delay:
+            self._torques.appendleft(np.zeros(12)) if len(self._torques) < delay else self._torques.popleft()
+        for _ in range(self.config.substeps):
+            self._torques.append(self._motor_torque())
+            self.data.ctrl[:] = self._torques.popleft()
+            self._advance(1)
+        if self._viewer is not None:
+            self._viewer.sync()
+        return self.state()
+
+    def _command_motors(self, command: JointCommand) -> None:
+        """Motor targets, rates, feed-forward torques and gains of this control period (module docstring, 1)."""
+        targets = self.open_legs.foot_poses(command.q_des)
+        self._qpos_command = self.legs.solve(self._qpos_command, self.legs.loop_dofs, targets)
+        rates, feedforward = np.empty(12), np.empty(12)
+        for side, jacobian in enumerate(self._jacobians):
+            leg = slice(6 * side, 6 * side + 6)
+            rates[leg] = np.linalg.solve(jacobian, command.qd_des[leg])
+            feedforward[leg] = jacobian.T @ command.tau_ff[leg]
+        self._targets = (self._qpos_command[self._motor_q], rates, feedforward)
+        if self.gains == "facts":
+            self._stiffness, self._damping = np.diag([m.kp for m in _MOTORS]), np.diag([m.kd for m in _MOTORS])
+            return
+        for side, jacobian in enumerate(self._jacobians):
+            leg = slice(6 * side, 6 * side + 6)
+            self._stiffness[leg, leg] = (jacobian.T * self._kp[leg]) @ jacobian
+            self._damping[leg, leg] = (jacobian.T * self._kd[leg]) @ jacobian
+
+    def _motor_torque(self) -> np.ndarray:
+        """PD at the motors this physics step, clipped to the torque limits and torque-speed lines."""
+        q_des, qd_des, tau_ff = self._targets
+        q, qd = self.data.qpos[self._motor_q], self.data.qvel[self._motor_v]
+        tau = self._strength * (self._stiffness @ (q_des - q) + self._damping @ (qd_des - qd) + tau_ff)
+        limit = np.minimum(_TORQUE_LIMIT_NM, 2.0 * _TORQUE_LIMIT_NM * np.maximum(1.0 - np.abs(qd) / _NO_LOAD_SPEED_RADPS, 0))
+        return np.clip(tau, -limit, limit)
+
+    # --- state -----------------------------------------------------------------------------------
+
+    def state(self) -> RobotState:
+        """The open-chain `RobotState` of the closed chain (module docstring, 3)."""
+        d = self.data
+        legs, open_legs = self.legs, self.open_legs
+        legs.set(d.qpos)
+        poses = [legs.foot_pose(side) for side in range(2)]
+        self._q_open = open_legs.inverse(poses, self._q_open)
+        leg_velocity = d.qvel.copy()
+        leg_velocity[:6] = 0.0
+        qd, tau = np.empty(12), np.empty(12)
+        for side in range(2):
+            leg = slice(6 * side, 6 * side + 6)
+            open_jacobian = open_legs.jacobian(side)
+            qd[leg] = np.linalg.solve(open_jacobian, legs.foot_jacobian(side) @ leg_velocity)
+            self._jacobians[side] = legs.motor_jacobian(side, open_jacobian)
+            tau[leg] = np.linalg.solve(self._jacobians[side].T, d.actuator_force[leg])
+        force = d.sensordata[self._touch_adr]
+        return RobotState(
+            time=d.time, base_pos=d.qpos[:3].copy(), base_quat=d.qpos[3:7].copy(), base_linvel=d.qvel[:3].copy(),
+            base_angvel=d.xmat[self._pelvis].reshape(3, 3) @ d.qvel[3:6], q=self._q_open.copy(), qd=qd,
+            contact=force > self.config.contact_threshold_n, foot_force=force, tau=tau,
+        )
+
+    def set_state(self, state: RobotState) -> None:
+        """Put the closed chain where `state` says (loops closed, springs at rest; leg rates through M^-1)."""
+        d = self.data
+        self._qpos_command = self.legs.solve(self._qpos_command, self.legs.loop_dofs, self.open_legs.foot_poses(state.q))
+        d.qpos[:] = self._qpos_command
+        d.qpos[:3], d.qpos[3:7] = state.base_pos, state.base_quat / np.linalg.norm(state.base_quat)
+        mujoco.mj_kinematics(self.model, d)
+        d.qvel[:] = 0.0
+        d.qvel[:3] = state.base_linvel
+        d.qvel[3:6] = d.xmat[self._pelvis].reshape(3, 3).T @ state.base_angvel
+        self._q_open = np.array(state.q, dtype=float)
+        self.state()  # the motor Jacobians at this configuration
+        for side, jacobian in enumerate(self._jacobians):
+            leg = slice(6 * side, 6 * side + 6)
+            d.qvel[self.legs.leg_dofs[side]] = self.legs.leg_rates(side, np.linalg.solve(jacobian, state.qd[leg]))
+        d.time = state.time
+        mujoco.mj_forward(self.model, d)
+
+    # --- randomization hooks -----------------------------------------------------------------------
+
+    def _set_gains(self, kp: np.ndarray, kd: np.ndarray) -> None:
+        """`kp`, `kd` are the open chain's joint gains (what a `JointCommand` means); the motor gains follow
+        from them each control period."""
+        self._kp, self._kd = np.array(kp, dtype=float), np.array(kd, dtype=float)

@@ -1,0 +1,132 @@
+"""The closed-chain Digit: its model against the facts and the open chain, the maps between them, the
+static torque map against MuJoCo's constraint Jacobian, and what stands and walks on it."""
+
+import mujoco
+import numpy as np
+import pytest
+
+from mbc import AlipController
+from mbc.errors import ConfigError
+from mbc.rollout import run_episode
+from mbc.sim import DigitSim
+from mbc.sim.closed_chain_maps import ClosedChainLegs, OpenChainLegs, stand_qpos
+from mbc.sim.closed_chain_model import closed_chain_mjspec
+from mbc.sim.closed_chain_sim import ClosedChainDigitSim
+from mbc.types import Command, JointCommand, RobotState
+from robots.digit import closed_chain_constants as cc
+from robots.digit import constants as digit
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return DigitSim(robot="digit_closed_chain")
+
+
+def test_model_carries_every_body_of_the_facts_with_the_open_chains_mass():
+    model = closed_chain_mjspec().compile()
+    assert mujoco.mj_getTotalmass(model) == pytest.approx(47.925414, abs=1e-6)
+    assert mujoco.mj_getTotalmass(model) == pytest.approx(digit.TOTAL_MASS_KG, abs=1e-4)
+    assert (model.nu, model.neq, model.nv) == (12, 6, 6 + 2 * 20)  # 20 leg dofs: 11 hinges, 3 balls
+    rod_lengths = sorted({round(float(np.linalg.norm(model.eq_data[i, 3:6])), 4) for i in range(model.neq)})
+    assert rod_lengths == [0.2881, 0.3401, 0.5012]  # toe B, toe A, achilles (facts 2.3)
+    assert model.opt.timestep == cc.TIMESTEP_S
+
+
+def test_selected_by_name_and_unknown_names_refused(sim):
+    assert isinstance(sim, ClosedChainDigitSim) and isinstance(sim, DigitSim)
+    assert type(DigitSim()) is DigitSim
+    with pytest.raises(ConfigError, match="unknown robot 'cassie'; valid: \\['digit', 'digit_closed_chain'\\]"):
+        DigitSim(robot="cassie")
+    with pytest.raises(ConfigError, match="unknown gains"):
+        DigitSim(robot="digit_closed_chain", gains="stiff")
+
+
+def test_loops_close_at_the_stand(sim):
+    legs = ClosedChainLegs()
+    legs.set(stand_qpos(legs))  # Digit's reset_qpos hinge angles
+    for side in range(2):
+        assert np.abs(legs.loop_residual(side)[0]).max() < 1e-4
+    state = sim.reset()  # the open chain's stand, as MuJoCo's constraint rows see it
+    rows = sim.data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+    assert rows.sum() == 18 and np.abs(sim.data.efc_pos[rows]).max() < 1e-4
+    np.testing.assert_allclose(state.q, digit.Q_STAND, atol=1e-6)
+    assert state.base_pos[2] == pytest.approx(digit.PELVIS_HEIGHT_STAND_M + 0.002)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_state_and_command_maps_round_trip(sim, seed):
+    """open-chain joints -> command map (loop IK) -> closed chain -> state map (foot-pose IK) -> the same joints."""
+    rng = np.random.default_rng(seed)
+    sim.reset()
+    leg_low, leg_high = np.array([-0.15, -0.15, -0.4, -0.5, -0.3, -0.2]), np.array([0.15, 0.15, 0.4, 0.2, 0.3, 0.2])
+    q = rng.uniform(np.tile(leg_low, 2), np.tile(leg_high, 2))
+    qd = rng.normal(0.0, 0.5, 12)
+    state = RobotState(time=0.0, base_pos=np.array([0, 0, 1.5]), base_quat=np.array([1.0, 0, 0, 0]),
+                       base_linvel=np.zeros(3), base_angvel=np.zeros(3), q=q, qd=qd, contact=np.zeros(2, bool))
+    sim.set_state(state)
+    rows = sim.data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY
+    assert np.abs(sim.data.efc_pos[rows]).max() < 1e-6
+    measured = sim.state()
+    np.testing.assert_allclose(measured.q, q, atol=1e-7)
+    np.testing.assert_allclose(measured.qd, qd, atol=1e-6)
+
+
+def test_static_torque_map_balances_a_foot_wrench_through_mujocos_constraints():
+    """tau_motor = M^T tau_open is right iff motor torques and the foot wrench W with J_open^T W = -tau_open
+    are balanced by forces of MuJoCo's constraints (connects and welded springs) on every leg dof."""
+    spec = closed_chain_mjspec(springs=False)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    legs, open_legs = ClosedChainLegs(model), OpenChainLegs()
+    rng = np.random.default_rng(0)
+    qpos = stand_qpos(legs)
+    for _ in range(4):
+        q_open = rng.uniform(-0.25, 0.25, 12)
+        qpos = legs.solve(qpos, legs.loop_dofs, open_legs.foot_poses(q_open), strict=True)
+        data.qpos[:] = qpos
+        mujoco.mj_forward(model, data)  # MuJoCo's constraint Jacobian at this configuration
+        equality = data.efc_J.reshape(data.nefc, model.nv)[data.efc_type == mujoco.mjtConstraint.mjCNSTR_EQUALITY]
+        legs.set(qpos)
+        open_legs.foot_poses(q_open)
+        for side in range(2):
+            open_jacobian = open_legs.jacobian(side)
+            tau_open = rng.normal(0.0, 20.0, 6)
+            wrench = -np.linalg.solve(open_jacobian.T, tau_open)
+            dofs = legs.leg_dofs[side]
+            for tau_motor, balanced in ((legs.motor_jacobian(side, open_jacobian).T @ tau_open, True),
+                                        (tau_open, False)):  # the identity map: hips only roughly right
+                applied = np.zeros(model.nv)
+                applied[legs.leg_motor_dofs[side]] = tau_motor
+                applied += legs.foot_jacobian(side).T @ wrench
+                constraint_force = np.linalg.lstsq(equality[:, dofs].T, -applied[dofs], rcond=None)[0]
+                imbalance = applied[dofs] + equality[:, dofs].T @ constraint_force
+                if balanced:
+                    assert np.abs(imbalance).max() < 1e-6 * np.abs(tau_open).max()
+                else:
+                    assert np.abs(imbalance).max() > 0.05 * np.abs(tau_open).max()
+
+
+def test_motor_delay_line_applies_each_torque_six_physics_steps_late():
+    sim = DigitSim(robot="digit_closed_chain")
+    sim.reset()
+    applied, computed = [], []
+    original = sim._motor_torque
+    sim._motor_torque = lambda: computed.append(original()) or computed[-1]
+    advance = sim._advance
+    sim._advance = lambda n: (applied.append(sim.data.ctrl.copy()), advance(n))
+    sim.step(JointCommand.hold(digit.Q_STAND))
+    sim.step(JointCommand.hold(digit.Q_STAND))
+    np.testing.assert_allclose(applied[:cc.TORQUE_DELAY_STEPS], 0.0)
+    np.testing.assert_allclose(applied[cc.TORQUE_DELAY_STEPS:], computed[:-cc.TORQUE_DELAY_STEPS])
+    assert np.abs(computed).max() > 1.0  # torques, not zeros, went through it (gravity bends the legs)
+
+
+@pytest.mark.parametrize("switch", [{"springs": False}, {"delay": False}])
+def test_mbc_stands_and_walks_on_the_closed_chain_without_springs_or_without_delay(switch):
+    """The MBC, untouched, stands 2 s and walks 3 s at 0.3 m/s on the closed chain with one of its two
+    destabilizing parts switched off (with both on its stiff PD excites the springs; docs/closed_chain.md)."""
+    for command, duration in ((Command(), 2.0), (Command(vx=0.3), 3.0)):
+        sim = DigitSim(robot="digit_closed_chain", **switch)
+        episode = run_episode(sim, AlipController.for_digit(), command, duration)
+        assert not episode.fell, f"fell at {episode.fall_time_s} s under {command}"
+        assert episode.summary()["distance_m"] > (0.3 if command.vx else -1.0)
