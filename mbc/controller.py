@@ -165,7 +165,7 @@ class AlipController:
         self.clock = GaitClock(cfg.timing)
         self.ik = WholeBodyIK(cfg.ik, dt=self.dt)
         self.qp = PassivityQp(cfg.qp)
-        self._ramp = CommandRamp(cfg.command_rates, self.dt)
+        self._ramp = CommandRamp(cfg.command_rates)
         reach = StepReach(cfg.max_step_length_m, cfg.min_step_width_m, cfg.max_step_width_m)
         self.mpc = AlipMpc(self.alip, cfg.mpc, reach, cfg.timing) if cfg.foot_placement == "mpc" else None
         self._kp, self._kd = np.asarray(cfg.kp, float).tolist(), np.asarray(cfg.kd, float).tolist()
@@ -247,7 +247,7 @@ class AlipController:
             self.reset(state)
         start = time.perf_counter()
         command_used, clipped = self.config.limits.clip(command)
-        command_used = self._ramp(command_used)
+        command_used = self._ramp(command_used, state.time)
         if not self._plausible_state(state):
             return self._fallback(command_used, clipped, start, reason="non-finite or implausible state")
         try:

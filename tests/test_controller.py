@@ -221,13 +221,47 @@ def test_a_standing_start_shifts_weight_then_steps_without_a_lurch():
 def test_command_ramp_follows_a_step_at_its_rates():
     from mbc.command_ramp import CommandRamp
 
-    ramp = CommandRamp((0.8, 0.8, 1.6), dt=0.005)
-    assert ramp((1.0, 0.0, 0.0)) == (1.0, 0.0, 0.0)  # the first command is followed at once
-    followed = [ramp((-0.5, 0.2, -0.8)) for _ in range(400)]
+    ramp = CommandRamp((0.8, 0.8, 1.6))
+    assert ramp((1.0, 0.0, 0.0), 0.0) == (1.0, 0.0, 0.0)  # the first command is followed at once
+    followed = [ramp((-0.5, 0.2, -0.8), 0.005 * k) for k in range(1, 401)]
     steps = np.abs(np.diff(np.array([(1.0, 0.0, 0.0)] + followed), axis=0))
     assert np.all(steps <= np.array([0.004, 0.004, 0.008]) + 1e-12)
     reached = [next(k for k, f in enumerate(followed) if abs(f[axis] - target) < 1e-9) + 1
                for axis, target in enumerate((-0.5, 0.2, -0.8))]
     assert reached == [375, 50, 100]  # 1.5 m/s at 0.8 m/s^2, 0.2 m/s at 0.8, 0.8 rad/s at 1.6 rad/s^2: ticks of 5 ms
     ramp.reset()
-    assert ramp((0.3, 0.0, 0.0)) == (0.3, 0.0, 0.0)
+    assert ramp((0.3, 0.0, 0.0), 2.0) == (0.3, 0.0, 0.0)
+
+
+def test_command_ramp_moves_by_time_not_by_calls():
+    """Called on every 4th tick only (an expert labelling a subset of states), it arrives when one called on
+    every tick does: 1 m/s at 0.8 m/s^2 in 1.25 s."""
+    from mbc.command_ramp import CommandRamp
+
+    every_tick, every_fourth = CommandRamp((0.8, 0.8, 1.6)), CommandRamp((0.8, 0.8, 1.6))
+    every_tick((0.0, 0.0, 0.0), 0.0), every_fourth((0.0, 0.0, 0.0), 0.0)
+    for k in range(1, 301):
+        dense = every_tick((1.0, 0.0, 0.0), 0.005 * k)
+        if k % 4 == 0:
+            sparse = every_fourth((1.0, 0.0, 0.0), 0.005 * k)
+            assert sparse == pytest.approx(dense)
+    assert dense[0] == pytest.approx(1.0) and every_tick.followed == (1.0, 0.0, 0.0)
+
+
+def test_expert_labelling_every_fourth_state_ramps_like_one_labelling_all():
+    """The expert (controller.follow on unlabelled ticks, act on labelled ones) follows a step in the command
+    at the same pace whichever states it labels."""
+    sim = DigitSim()
+    state = sim.reset()
+    dense, sparse = AlipController.for_digit(), AlipController.for_digit()
+    dense.reset(state), sparse.reset(state)
+    for k in range(200):
+        command = Command(0.8 if k else 0.0)  # standing, then a step to 0.8 m/s
+        action = dense.act(state, command)
+        if k % 4 == 0:
+            sparse.act(state, command)
+        else:
+            sparse.follow(state)
+        state = sim.step(action)
+    np.testing.assert_allclose(sparse._ramp.followed, dense._ramp.followed, atol=0.8 * 4 * 0.005 + 1e-9)
+    assert dense._ramp.followed[0] == pytest.approx(0.8 * 199 * 0.005)  # mid-ramp: 0.8 m/s^2 for 0.995 s

@@ -41,6 +41,8 @@ GAIN_MODES = ("open", "facts")
 _MOTORS = cc.LEG_MOTORS + cc.LEG_MOTORS
 _TORQUE_LIMIT_NM = np.array([m.torque_limit_nm for m in _MOTORS])
 _NO_LOAD_SPEED_RADPS = np.array([m.no_load_speed_radps for m in _MOTORS])
+_TWICE_LIMIT_NM, _LIMIT_DROP_PER_RADPS = 2.0 * _TORQUE_LIMIT_NM, 2.0 * _TORQUE_LIMIT_NM / _NO_LOAD_SPEED_RADPS
+"""The torque-speed line 2 tau_max (1 - |qd| / qd_no-load) as a - b |qd|."""
 
 
 class ClosedChainDigitSim(DigitSim):
@@ -139,10 +141,10 @@ class ClosedChainDigitSim(DigitSim):
     def _motor_torque(self) -> np.ndarray:
         """PD at the motors this physics step, clipped to the torque limits and torque-speed lines."""
         q_des, qd_des, tau_ff = self._targets
-        q, qd = self.data.qpos[self._motor_q], self.data.qvel[self._motor_v]
-        tau = self._strength * (self._stiffness @ (q_des - q) + self._damping @ (qd_des - qd) + tau_ff)
-        limit = np.minimum(_TORQUE_LIMIT_NM, 2.0 * _TORQUE_LIMIT_NM * np.maximum(1.0 - np.abs(qd) / _NO_LOAD_SPEED_RADPS, 0))
-        return np.clip(tau, -limit, limit)
+        qd = self.data.qvel[self._motor_v]
+        tau = self._stiffness @ (q_des - self.data.qpos[self._motor_q]) + self._damping @ (qd_des - qd) + tau_ff
+        limit = np.minimum(_TORQUE_LIMIT_NM, np.maximum(_TWICE_LIMIT_NM - _LIMIT_DROP_PER_RADPS * np.abs(qd), 0.0))
+        return np.minimum(np.maximum(self._strength * tau, -limit), limit)
 
     # --- state -----------------------------------------------------------------------------------
 
