@@ -68,13 +68,30 @@ def _run(job: tuple) -> dict:
     terrain, params, command, pushes = scenarios(duration)[scenario]
     sim = DigitSim(terrain, seed=seed, **params, **ROBOTS[robot])
     controller = PolicyController(policy) if policy else AlipController.for_digit()
-    episode = run_episode(sim, controller, command, duration, pushes, state=perturbed_stand(sim, seed))
+    com_errors = []
+    if sim.robot_name != "digit":
+        def com_error(state, _action) -> None:  # every 10th tick: the CoM the open chain places at the mapped joints
+            if len(com_errors) < state.time / (10 * sim.dt):
+                com_errors.append(open_chain_com_error(sim, state))
+
+    episode = run_episode(sim, controller, command, duration, pushes, state=perturbed_stand(sim, seed),
+                          on_tick=com_error if sim.robot_name != "digit" else None)
     velocity, _ = episode.window_velocity()
     t = episode.arrays("time")
     return {"robot": robot, "scenario": scenario, "seed": seed, "fell": episode.fell, "fall_time_s": episode.fall_time_s,
             "vx": float(episode.mean_velocity(since_s=3.0)[0]) if not episode.fell else np.nan,
             "window_t": t[0] + (np.arange(len(velocity)) + 1) * (t[-1] - t[0]) / max(len(velocity), 1),
-            "window_vx": velocity[:, 0], "tick_ms": float(np.median(episode.arrays("tick_time_s"))) * 1e3}
+            "window_vx": velocity[:, 0], "tick_ms": float(np.median(episode.arrays("tick_time_s"))) * 1e3,
+            "com_error": np.mean(com_errors, axis=0) if com_errors else np.zeros(3)}
+
+
+def open_chain_com_error(sim: DigitSim, state) -> np.ndarray:
+    """(3,) the closed chain's CoM minus the open chain's at the joints the state map reports, pelvis frame [m]:
+    what a controller built on the open chain misjudges."""
+    com_world, _ = sim.com_state()
+    rotation = sim.data.xmat[sim.model.body("pelvis").id].reshape(3, 3)
+    sim.open_legs.foot_poses(state.q)  # the open chain's kinematics at these joints, pelvis at the origin
+    return rotation.T @ (com_world - state.base_pos) - sim.open_legs.data.subtree_com[1]
 
 
 def gap_figures(robot: str) -> dict[str, float]:
@@ -130,6 +147,11 @@ def main(args: Args) -> None:
     print("| step / open chain's | " + " | ".join(f"{gaps[r]['step_ms'] / open_step:.1f}x" for r in ROBOTS) + " |")
     print("| controller tick, median [ms] | " + " | ".join(
         f"{np.median([r['tick_ms'] for r in results if r['robot'] == robot]):.3f}" for robot in ROBOTS) + " |")
+    walking = [r for r in results if r["robot"] != "open chain" and r["scenario"].startswith("flat") and not r["fell"]]
+    if walking:
+        error = np.mean([r["com_error"] for r in walking], axis=0) * 100
+        print(f"\nCoM of the closed chain minus the open chain's at the mapped joints, pelvis frame, flat walking: "
+              f"({error[0]:+.2f}, {error[1]:+.2f}, {error[2]:+.2f}) cm")
     print(f"\nwall time {time.perf_counter() - start:.0f} s")
     if args.plot:
         plot(results, args.plot, who)

@@ -5,6 +5,7 @@
     python examples/walk_mbc.py --vy 0.2 --push-force 0 100 0 --push-time 4
     python examples/walk_mbc.py --policy policies/distilled.pt --vx 0.5   # a learned policy instead of the MBC
     python examples/walk_mbc.py --viewer          # needs a display
+    python examples/walk_mbc.py --robot digit_closed_chain --vx 0.3   # Digit's closed-chain legs (transfer)
 
 The controller follows vx in [-0.5, 1.0] m/s, vy in [-0.3, 0.3] m/s and yaw rate in [-0.8, 0.8] rad/s;
 commands beyond are clipped, and the summary says so. Tracking errors are per axis, on velocities
@@ -55,6 +56,8 @@ class Args:
     step_height: float | None = None
     """Riser height, only with --terrain stairs [m] (default: the library's, 0.1)."""
     seed: int = 0
+    robot: Literal["digit", "digit_closed_chain"] = "digit"
+    """The simulated robot: the open chain every controller is built on, or Digit's closed-chain legs."""
     push_force: tuple[float, float, float] | None = None
     """Push on the pelvis, world frame [N]."""
     push_time: float = 4.0
@@ -103,7 +106,7 @@ def main(args: Args) -> dict:
     check_duration(args.duration, AlipController.dt)
     command = Command(args.vx, args.vy, args.yaw_rate)
     pushes = [Push(args.push_time, args.push_force, args.push_duration)] if args.push_force else []
-    sim = DigitSim(args.terrain, seed=args.seed, viewer=args.viewer, **params)
+    sim = DigitSim(args.terrain, seed=args.seed, viewer=args.viewer, robot=args.robot, **params)
     controller = PolicyController(args.policy) if args.policy else AlipController.for_digit(
         foot_placement=args.foot_placement, adapt_step_timing=args.adapt_step_timing)
     used, clipped = controller.command_limits.clip(command)

@@ -107,7 +107,7 @@ def run_job(job: Job) -> dict:
 
 
 def _start(terrain: str, seed: int, shift: Shift, controller: Controller, **terrain_params):
-    sim = DigitSim(terrain, seed=seed, **terrain_params)
+    sim = shift.simulator(terrain, seed, **terrain_params)
     controller = shift.apply(sim, controller, seed)
     return sim, controller, perturbed_stand(sim, seed)
 

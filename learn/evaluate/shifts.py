@@ -2,7 +2,9 @@
 be run where no controller was tuned and no policy was trained.
 
 Physical shifts set `mbc.sim.DomainParams` on the simulator; sensing shifts wrap the controller in
-`ShiftedSensing`, which hands it a noisy or late copy of the measured state (the simulator is untouched).
+`ShiftedSensing`, which hands it a noisy or late copy of the measured state (the simulator is untouched);
+robot shifts run another robot model behind the same interface (`DigitSim(robot=...)`): the closed-chain
+Digit, the transfer test.
 """
 
 from __future__ import annotations
@@ -41,6 +43,14 @@ class Shift:
     delay_s: float = 0.0
     noise: SensorNoise = field(default_factory=SensorNoise)
     latency_ticks: int = 0
+    robot: str = "digit"
+    """The simulated robot (`DigitSim(robot=...)`)."""
+    robot_options: tuple[tuple[str, object], ...] = ()
+    """Keywords of that robot's simulator, e.g. (("springs", False),)."""
+
+    def simulator(self, terrain: str, seed: int, **terrain_params) -> DigitSim:
+        """The shifted robot's simulator on `terrain` (the physical and sensing shifts come with `apply`)."""
+        return DigitSim(terrain, seed=seed, robot=self.robot, **dict(self.robot_options), **terrain_params)
 
     def domain(self, sim: DigitSim, seed: int) -> DomainParams:
         rng = np.random.default_rng(10_000 + seed)
@@ -67,6 +77,10 @@ SHIFTS = {shift.name: shift for shift in (
           "+-0.5 rad/s, base angular velocity +-0.1 rad/s, base velocity +-0.1 m/s",
           noise=SensorNoise(0.02, 0.5, 0.1, 0.1)),
     Shift("sensor_latency", "the controller reads the state of 2 ticks (10 ms) before", latency_ticks=2),
+    Shift("closed_chain", "Digit's closed-chain legs (rods, knee and heel springs, 3 ms motor delay; "
+          "`mbc.sim.closed_chain_sim`) behind the open chain's interface", robot="digit_closed_chain"),
+    Shift("closed_chain_rigid", "the closed chain with its springs welded (rods and motor delay kept)",
+          robot="digit_closed_chain", robot_options=(("springs", False),)),
 )}
 
 

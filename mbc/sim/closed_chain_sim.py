@@ -31,7 +31,7 @@ import numpy as np
 from mbc.errors import ConfigError
 from mbc.robot import JointMap, as_slice
 from mbc.sim.closed_chain_maps import ClosedChainLegs, OpenChainLegs, stand_qpos
-from mbc.sim.closed_chain_model import closed_chain_mjspec
+from mbc.sim.closed_chain_model import SIDES, SPRING_JOINTS, closed_chain_mjspec
 from mbc.sim.digit_sim import DigitSim, SimConfig
 from mbc.types import JointCommand, RobotState
 from robots.digit import closed_chain_constants as cc
@@ -70,6 +70,7 @@ class ClosedChainDigitSim(DigitSim):
         motor_joints = m.actuator_trnid[:, 0]
         self._motor_q = as_slice(m.jnt_qposadr[motor_joints])
         self._motor_v = as_slice(m.jnt_dofadr[motor_joints])
+        self._spring_q = m.jnt_qposadr[[m.joint(f"{side}_{name}").id for side in SIDES for name in SPRING_JOINTS]]
         self.joint_map = JointMap(q=self._motor_q, v=self._motor_v)
         """The motors' columns in qpos and qvel (the joints the simulator drives; not the open chain's)."""
         self._qpos_command = self.stand_qpos()
@@ -82,8 +83,9 @@ class ClosedChainDigitSim(DigitSim):
     def stand_qpos(self) -> np.ndarray:
         """The closed chain in the open chain's stand: loops closed, springs at rest, both feet where the open
         chain's are at `Q_STAND` (pelvis at the origin)."""
-        return self.legs.solve(stand_qpos(self.legs), self.legs.loop_dofs, self.open_legs.foot_poses(digit.Q_STAND),
-                               strict=True)
+        qpos = stand_qpos(self.legs)
+        qpos[self._spring_q] = 0.0
+        return self.legs.solve(qpos, self.legs.loop_dofs, self.open_legs.foot_poses(digit.Q_STAND), strict=True)
 
     # --- episode -------------------------------------------------------------------------------
 
