@@ -8,8 +8,9 @@ the springs welded, without the delay, and without both: switching each part off
 controller fails on. Nothing is tuned on the closed chain. Runs: standing, flat ground at 0.3 and
 0.5 m/s, a 10 deg incline at 0.3 m/s, 100 N x 0.2 s pushes (forward, backward, left, right) while
 walking at 0.2 m/s. Printed: falls, the speed held, and for each robot the gap figures (stand pose and
-CoM, loop residual, joint angles held under gravity against those commanded) and the simulation
-time per control period against the open chain's.
+CoM, loop residual, joint angles held under gravity against those commanded), the simulation time
+per control period against the open chain's and the MBC's tick on each (timed in one process,
+robots alternated).
 """
 
 from __future__ import annotations
@@ -81,7 +82,7 @@ def _run(job: tuple) -> dict:
     return {"robot": robot, "scenario": scenario, "seed": seed, "fell": episode.fell, "fall_time_s": episode.fall_time_s,
             "vx": float(episode.mean_velocity(since_s=3.0)[0]) if not episode.fell else np.nan,
             "window_t": t[0] + (np.arange(len(velocity)) + 1) * (t[-1] - t[0]) / max(len(velocity), 1),
-            "window_vx": velocity[:, 0], "tick_ms": float(np.median(episode.arrays("tick_time_s"))) * 1e3,
+            "window_vx": velocity[:, 0],
             "com_error": np.mean(com_errors, axis=0) if com_errors else np.zeros(3)}
 
 
@@ -110,13 +111,26 @@ def gap_figures(robot: str) -> dict[str, float]:
     held = np.mean(errors[len(errors) // 2:], axis=0)
     figures["knee_held_deg"], figures["ankle_pitch_held_deg"] = np.rad2deg(held[[3, 4]])
     figures["joints_held_rms_deg"] = float(np.rad2deg(np.sqrt(np.mean(held ** 2))))
-    hold = JointCommand.hold(digit.Q_STAND)
-    sim.reset()
-    start = time.perf_counter()
-    for _ in range(200):
-        sim.step(hold)
-    figures["step_ms"] = (time.perf_counter() - start) / 200 * 1e3
     return figures
+
+
+def step_and_tick_ms(rounds: int = 3, ticks: int = 200) -> dict[str, tuple[float, float]]:
+    """Median wall time of one `sim.step` and of one MBC `act` per robot, walking at 0.3 m/s; robots
+    alternated `rounds` times in this one process (so they share the machine's state)."""
+    times = {robot: ([], []) for robot in ROBOTS}
+    for _ in range(rounds):
+        for robot, (steps, acts) in times.items():
+            sim, controller = DigitSim(**ROBOTS[robot]), AlipController.for_digit()
+            state = sim.reset()
+            controller.reset(state)
+            for _ in range(ticks):
+                start = time.perf_counter()
+                action = controller.act(state, Command(0.3))
+                middle = time.perf_counter()
+                state = sim.step(action)
+                steps.append(time.perf_counter() - middle)
+                acts.append(middle - start)
+    return {robot: (1e3 * float(np.median(steps)), 1e3 * float(np.median(acts))) for robot, (steps, acts) in times.items()}
 
 
 def main(args: Args) -> None:
@@ -143,10 +157,10 @@ def main(args: Args) -> None:
     print("\n| gap | " + " | ".join(ROBOTS) + " |\n|---|" + "---|" * len(ROBOTS))
     for key in next(iter(gaps.values())):
         print(f"| {key} | " + " | ".join(f"{gaps[robot][key]:.4g}" for robot in ROBOTS) + " |")
-    open_step = gaps["open chain"]["step_ms"]
-    print("| step / open chain's | " + " | ".join(f"{gaps[r]['step_ms'] / open_step:.1f}x" for r in ROBOTS) + " |")
-    print("| controller tick, median [ms] | " + " | ".join(
-        f"{np.median([r['tick_ms'] for r in results if r['robot'] == robot]):.3f}" for robot in ROBOTS) + " |")
+    timing = step_and_tick_ms()
+    print("| sim step (5 ms of simulated time), median [ms] | " + " | ".join(f"{timing[r][0]:.3f}" for r in ROBOTS) + " |")
+    print("| sim step / open chain's | " + " | ".join(f"{timing[r][0] / timing['open chain'][0]:.1f}x" for r in ROBOTS) + " |")
+    print("| MBC tick, median [ms] | " + " | ".join(f"{timing[r][1]:.3f}" for r in ROBOTS) + " |")
     walking = [r for r in results if r["robot"] != "open chain" and r["scenario"].startswith("flat") and not r["fell"]]
     if walking:
         error = np.mean([r["com_error"] for r in walking], axis=0) * 100

@@ -42,7 +42,7 @@ _DAMPING = 1e-8
 def min_norm_step(jacobian: np.ndarray, residual: np.ndarray, damping: float = _DAMPING) -> np.ndarray:
     """dx minimizing |J dx + r|^2 + damping |dx|^2 (the minimum-norm Gauss-Newton step): -J^T (J J^T + damping)^-1 r."""
     gram = jacobian @ jacobian.T
-    gram[np.diag_indices_from(gram)] += damping
+    gram.flat[::len(gram) + 1] += damping
     return -jacobian.T @ np.linalg.solve(gram, residual)
 
 
@@ -64,7 +64,7 @@ class FootPose:
 
     def error_from(self, pos: np.ndarray, rot: np.ndarray) -> np.ndarray:
         """(6,) [position error; rotation vector] taking (pos, rot) to this pose."""
-        return np.r_[self.pos - pos, rotation_error(self.rot, rot)]
+        return np.concatenate((self.pos - pos, rotation_error(self.rot, rot)))
 
 
 class OpenChainLegs:
@@ -135,6 +135,8 @@ class ClosedChainLegs:
         self.loop_dofs = [np.array([d for d in dofs if d not in springs]) for dofs, springs in zip(leg_dofs, spring_dofs)]
         """Per side, the dofs a loop solve moves: all but the springs (held)."""
         self.leg_motor_dofs = [self.motor_dofadr[6 * s:6 * s + 6] for s in range(2)]
+        self.leg_passive_dofs = [np.setdiff1d(loop, motors) for loop, motors in zip(self.loop_dofs, self.leg_motor_dofs)]
+        """Per side, the loop dofs the motors do not drive directly (passive hinges and rods)."""
         self._jacp, self._jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
         self._jacp2, self._jacr2 = np.zeros((3, m.nv)), np.zeros((3, m.nv))
 
@@ -183,7 +185,7 @@ class ClosedChainLegs:
                 residual, jacobian = self.loop_residual(side)
                 if targets[side] is not None:
                     pose = self.foot_pose(side)
-                    residual = np.r_[residual, -targets[side].error_from(pose.pos, pose.rot)]
+                    residual = np.concatenate((residual, -targets[side].error_from(pose.pos, pose.rot)))
                     jacobian = np.vstack([jacobian, self.foot_jacobian(side)])
                 worst = max(worst, float(residual @ residual))
                 cols = free_dofs[side]
@@ -218,8 +220,7 @@ class ClosedChainLegs:
     def _passive_per_motor(self, side: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(motor dofs, passive dofs, d passive / d motor) with the loops closed: Jc_p dp = -Jc_m dm."""
         _, constraint = self.loop_residual(side)
-        motors = self.leg_motor_dofs[side]
-        passive = np.array([d for d in self.loop_dofs[side] if d not in motors])
+        motors, passive = self.leg_motor_dofs[side], self.leg_passive_dofs[side]
         return motors, passive, min_norm_step(constraint[:, passive], constraint[:, motors], damping=0.0)
 
 
