@@ -39,6 +39,13 @@ class Expert:
             joint_command = self.controller.act(state, Command(*command))
         return self.action_space.from_command(joint_command, state), not self.diagnostics.fallback
 
+    def followed(self, command: np.ndarray) -> bool:
+        """Whether the last label is the expert's action for `command` itself: not clipped to its range or
+        turning limit, not mid-ramp toward it (then it is its action for another command)."""
+        used = self.diagnostics.command_used
+        return bool(abs(used[0] - command[0]) < 1e-9 and abs(used[1] - command[1]) < 1e-9
+                    and abs(used[2] - command[2]) < 1e-9)
+
     @property
     def diagnostics(self) -> ControllerDiagnostics:
         """The controller's report of the last labelled tick (assumption monitors, QP health)."""

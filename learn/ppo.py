@@ -48,6 +48,10 @@ class RegularizerConfig:
     """delta_m of each monitor (the paper's 0.0159 (m/s)^2 for z')."""
     label_every: int = 1
     """The expert labels every k-th tick of each environment (an unbiased subsample of the states)."""
+    only_followed_commands: bool = True
+    """Regularize only toward labels that are the expert's action for the commanded velocity: where it clips
+    the command (beyond its range or turning limit) or is mid-ramp toward it, its action is for another
+    command, and pulling toward it fights the tracking reward (`Expert.followed`)."""
     lipschitz_alpha: float = 1e-4
     """alpha of the Lipschitz penalty alpha E[||grad_s mu(s)||^2] (the paper's 1e-4; 0: off)."""
 
@@ -154,6 +158,8 @@ class Ppo:
         old_values, returns, advantages = flat(rollout.values), returns.reshape(-1), advantages.reshape(-1)
         advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
         labelled = flat(rollout.label_valid)
+        if self.regularizer.only_followed_commands:
+            labelled = labelled & flat(rollout.label_followed)  # not in place: flat() shares the rollout's memory
         expert_actions, weights = flat(rollout.expert_actions), self.regularization_weight(flat(rollout.monitors))
         old_mean = self.model.action_mean(obs).detach()
         old_std = self.model.log_std.exp().detach()

@@ -69,6 +69,8 @@ class Rollout:
     expert_actions: np.ndarray
     label_valid: np.ndarray
     """The expert was asked and gave a label (no fallback)."""
+    label_followed: np.ndarray
+    """The label is the expert's action for the commanded velocity itself (`Expert.followed`)."""
     expert_acted: np.ndarray
     """The expert's action was executed."""
     actions: np.ndarray
@@ -143,6 +145,7 @@ class EnvGroup:
         obs_size = envs[0].observation_size
         buffers = {"observations": np.zeros((T, n, obs_size), np.float32),
                    "expert_actions": np.zeros((T, n, ACTION_DIM), np.float32), "label_valid": np.zeros((T, n), bool),
+                   "label_followed": np.zeros((T, n), bool),
                    "expert_acted": np.zeros((T, n), bool), "actions": np.zeros((T, n, ACTION_DIM), np.float32),
                    "rewards": np.zeros((T, n), np.float32), "terminated": np.zeros((T, n), bool),
                    "truncated": np.zeros((T, n), bool), "monitors": np.zeros((T, n, len(MONITOR_NAMES)), np.float32),
@@ -175,6 +178,7 @@ class EnvGroup:
                 if labelling:
                     expert_action, valid = env.label()
                     buffers["expert_actions"][t, k], buffers["label_valid"][t, k] = expert_action, valid
+                    buffers["label_followed"][t, k] = env.expert.followed(env.command)
                 elif env.expert is not None:
                     env.expert.follow(env.state)
                 middle = time.perf_counter()

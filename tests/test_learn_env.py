@@ -94,6 +94,20 @@ def test_env_clock_agrees_with_the_expert_clock_while_the_expert_walks():
     assert touchdowns >= 6  # 3 s of walking at 0.35 s a step
 
 
+def test_expert_says_whether_its_label_is_for_the_commanded_velocity():
+    """Within range and after its ramp: followed; beyond its range, past its turning limit or mid-ramp: its
+    action is for another command."""
+    env = WalkEnv(QUIET)
+    env.reset(seed=0)
+    followed = []
+    for command in ([0.3, 0.0, 0.0], [0.3, 0.0, 0.0], [1.4, 0.0, 0.0], [0.9, 0.0, 0.8], [0.3, 0.2, 0.0]):
+        action, _ = env.expert.label(env.state, np.array(command))
+        followed.append(env.expert.followed(np.array(command)))
+        env.step(action)
+    # the first command is followed at once; 1.4 m/s is beyond 1.0; 0.9 x 0.8 beyond 0.3 m/s^2; vy stepped by 0.2
+    assert followed == [True, True, False, False, False]
+
+
 def test_episode_terminates_on_a_fall_and_reports_monitors():
     env = WalkEnv(QUIET)
     env.reset(seed=0)

@@ -109,6 +109,7 @@ def _constant_reward_rollout(rng, T=400, n=2, reward=1.5):
 
     return Rollout(observations=rng.normal(size=(T, n, 10)).astype(np.float32),
                    expert_actions=np.zeros((T, n, 24), np.float32), label_valid=np.zeros((T, n), bool),
+                   label_followed=np.zeros((T, n), bool),
                    expert_acted=np.zeros((T, n), bool), actions=np.zeros((T, n, 24), np.float32),
                    rewards=np.full((T, n), reward, np.float32), terminated=np.zeros((T, n), bool),
                    truncated=np.zeros((T, n), bool), monitors=np.zeros((T, n, 3), np.float32),
@@ -143,6 +144,7 @@ def test_update_terms_per_variant_and_critic_only_leaves_the_actor(rng):
 
     rollout = Rollout(observations=rng.normal(size=(T, n, 10)).astype(np.float32),
                       expert_actions=rng.normal(size=(T, n, 24)).astype(np.float32), label_valid=np.ones((T, n), bool),
+                      label_followed=np.ones((T, n), bool),
                       expert_acted=np.zeros((T, n), bool), actions=rng.normal(size=(T, n, 24)).astype(np.float32),
                       rewards=rng.normal(size=(T, n)).astype(np.float32), terminated=np.zeros((T, n), bool),
                       truncated=np.zeros((T, n), bool), monitors=rng.normal(scale=0.1, size=(T, n, 3)).astype(np.float32),
@@ -156,6 +158,11 @@ def test_update_terms_per_variant_and_critic_only_leaves_the_actor(rng):
         stats = Ppo(model, PpoConfig(epochs=1, minibatches=2), method_regularizer(method)).update(rollout)
         terms = {"value", "surrogate", "entropy", "lipschitz"} | extra
         assert terms <= set(stats) and ("regularizer" in stats) == bool(extra)
+    rollout.label_followed[:, :2] = False  # half the labels are the expert's action for another command
+    stats = Ppo(model, PpoConfig(epochs=1, minibatches=2), method_regularizer("ppf")).update(rollout)
+    assert stats["labelled_fraction"] == 0.5
+    every_label = dataclasses.replace(method_regularizer("ppf"), only_followed_commands=False)
+    assert Ppo(model, PpoConfig(epochs=1, minibatches=2), every_label).update(rollout)["labelled_fraction"] == 1.0
 
 
 def _short_run(tmp_path: Path, method: str, iterations: int, resume: bool = False) -> FinetuneConfig:
