@@ -35,7 +35,8 @@ def _rollout(label_valid: np.ndarray, terminated: np.ndarray) -> Rollout:
     steps, envs = label_valid.shape
     zeros = np.zeros((steps, envs))
     return Rollout(observations=np.zeros((steps, envs, 3)), expert_actions=np.zeros((steps, envs, 2)),
-                   label_valid=label_valid, label_followed=label_valid, expert_acted=zeros.astype(bool), actions=np.zeros((steps, envs, 2)),
+                   label_valid=label_valid, label_followed=label_valid, expert_acted=zeros.astype(bool),
+                   actions=np.zeros((steps, envs, 2)),
                    rewards=zeros, terminated=terminated, truncated=zeros.astype(bool), monitors=np.zeros((steps, envs, 3)),
                    log_probs=zeros, values=zeros, last_values=np.zeros(envs))
 
