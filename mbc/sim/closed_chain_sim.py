@@ -73,7 +73,8 @@ class ClosedChainDigitSim(DigitSim):
         self._spring_q = m.jnt_qposadr[[m.joint(f"{side}_{name}").id for side in SIDES for name in SPRING_JOINTS]]
         self.joint_map = JointMap(q=self._motor_q, v=self._motor_v)
         """The motors' columns in qpos and qvel (the joints the simulator drives; not the open chain's)."""
-        self._qpos_command = self.stand_qpos()
+        self._stand_qpos = self.stand_qpos()
+        self._qpos_command = self._stand_qpos.copy()
         self._q_open = digit.Q_STAND.copy()
         self._jacobians = np.tile(np.eye(6), (2, 1, 1))  # M per leg, refreshed by `state`
         self._targets = (self._qpos_command[self._motor_q].copy(), np.zeros(12), np.zeros(12))
@@ -95,7 +96,7 @@ class ClosedChainDigitSim(DigitSim):
             self.rng = np.random.default_rng(seed)
         mujoco.mj_resetData(self.model, self.data)
         mujoco.mj_kinematics(self.model, self.data)
-        self._qpos_command = self.stand_qpos()
+        self._qpos_command = self._stand_qpos.copy()
         self.data.qpos[:] = self._qpos_command
         self.data.qpos[:3] = [0.0, 0.0, self.terrain_height(0.0, 0.0) + digit.PELVIS_HEIGHT_STAND_M + 0.002]
         self._q_open = digit.Q_STAND.copy()
@@ -112,8 +113,10 @@ class ClosedChainDigitSim(DigitSim):
             raise ConfigError(f"step expects a JointCommand, got {type(command).__name__}")
         self._command_motors(command)
         delay = self.torque_delay_steps + self._delay_substeps  # the domain's delay adds to the motors'
-        while len(self._torques) != delay:
-            self._torques.appendleft(np.zeros(12)) if len(self._torques) < delay else self._torques.popleft()
+        while len(self._torques) < delay:
+            self._torques.appendleft(np.zeros(12))
+        while len(self._torques) > delay:
+            self._torques.popleft()
         for _ in range(self.config.substeps):
             self._torques.append(self._motor_torque())
             self.data.ctrl[:] = self._torques.popleft()
