@@ -26,3 +26,12 @@ def test_learning_throughput_benchmarks_print_their_figures():
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert ppo.returncode == 0, ppo.stderr
     assert re.search(r"ppf / fullreg, 1/4\s+\d+\s+\d+%", ppo.stdout)
+
+
+def test_closed_chain_benchmark_prints_its_tables():
+    result = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_closed_chain.py"), "--seeds", "1",
+                             "--duration", "1.0", "--workers", "2"], capture_output=True, text=True, timeout=600, cwd=ROOT)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert re.search(r"^\| stand \| 1/1, .* \|$", result.stdout, re.MULTILINE)  # the open chain stands
+    assert re.search(r"^\| loop_residual_m \| 0 \| [\d.e-]+ \|", result.stdout, re.MULTILINE)
+    assert re.search(r"^\| sim step / open chain's \| 1\.0x \| [\d.]+x \|", result.stdout, re.MULTILINE)
