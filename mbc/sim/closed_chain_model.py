@@ -16,8 +16,9 @@ import numpy as np
 
 from mbc.robot import LOWER_CONAFFINITY, LOWER_CONTYPE, UPPER_CONAFFINITY, UPPER_CONTYPE
 from robots.digit import closed_chain_constants as cc
+from robots.digit import constants as digit
 
-SIDES = ("left", "right")
+SIDES = digit.SIDES
 SPRING_JOINTS = ("shin", "heel_spring")
 ROD_BODIES = ("achilles_rod", "toe_a_rod", "toe_b_rod")
 

@@ -65,7 +65,7 @@ class ClosedChainDigitSim(DigitSim):
 
     def _bind_robot(self) -> None:
         m = self.model
-        self.legs = ClosedChainLegs(closed_chain_mjspec(springs=self.springs).compile())
+        self.legs = ClosedChainLegs(m)  # kinematics only: its own MjData, the simulator's model
         self.open_legs = OpenChainLegs()
         motor_joints = m.actuator_trnid[:, 0]
         self._motor_q = as_slice(m.jnt_qposadr[motor_joints])
