@@ -24,7 +24,7 @@ ACTION_DIM = 2 * digit.NUM_JOINTS
 class ActionSpace:
     """Maps normalized actions to `JointCommand`s and back, given the state they act from."""
 
-    def __init__(self, kp: np.ndarray = digit.KP_DEFAULT, kd: np.ndarray = digit.KD_DEFAULT,
+    def __init__(self, kp: np.ndarray = digit.KP, kd: np.ndarray = digit.KD,
                  torque_scale: np.ndarray = digit.TORQUE_LIMIT_NM) -> None:
         self.kp, self.kd = np.asarray(kp, float), np.asarray(kd, float)
         self.torque_scale = np.asarray(torque_scale, float)

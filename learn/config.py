@@ -86,8 +86,9 @@ class Randomization:
 
 
 def paper_randomization() -> Randomization:
-    """Ranges like the paper's training (friction, masses, motor strength, delay, observation noise)."""
-    return Randomization(friction=(0.6, 1.2), mass_scale=(0.9, 1.1), motor_strength=(0.9, 1.1), delay_s=(0.0, 0.002),
+    """Ranges like the paper's training (friction, masses, motor strength, delay, observation noise); the delay
+    reaches the closed-chain Digit's 3 ms motor delay (`robots.digit.closed_chain_constants.TORQUE_DELAY_STEPS`)."""
+    return Randomization(friction=(0.6, 1.2), mass_scale=(0.9, 1.1), motor_strength=(0.9, 1.1), delay_s=(0.0, 0.003),
                          observation_noise=1.0)
 
 

@@ -24,7 +24,7 @@ from learn.action import ActionSpace
 from learn.config import EnvConfig, PolicyConfig, WorkerConfig, paper_randomization
 from learn.curriculum import TerrainCurriculum, VelocityCurriculum
 from learn.observation import ObservationLayout
-from learn.policy import ActorCritic, load_checkpoint
+from learn.policy import ActorCritic, check_gains, load_checkpoint
 from learn.ppo import Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
 from learn.runner import POLICY, TRAINING_STATE, deployable_checkpoint, rollout_seed, save_torch
 from learn.vec_env import RolloutRequest, make_vec_env
@@ -87,7 +87,9 @@ class FinetuneRunner:
             self.model = ActorCritic(ObservationLayout(env.history_length).size, cfg.policy)
             self._fresh_normalizer = True
         else:
-            self.model = ActorCritic.from_checkpoint(load_checkpoint(cfg.init_policy))
+            checkpoint = load_checkpoint(cfg.init_policy)
+            check_gains(checkpoint, self.action_space.kp, self.action_space.kd, "this fine-tuning's action space")
+            self.model = ActorCritic.from_checkpoint(checkpoint)
             self._fresh_normalizer = False
         with torch.no_grad():
             self.model.log_std.fill_(cfg.init_log_std)

@@ -109,6 +109,16 @@ def load_checkpoint(path: str | Path) -> dict:
     return checkpoint
 
 
+def check_gains(checkpoint: dict, kp: np.ndarray, kd: np.ndarray, where: str) -> None:
+    """Raise `ConfigError` unless the checkpoint's action space was trained with the joint gains (kp, kd) of `where`:
+    an action means a torque only through the gains it was learned with."""
+    trained = np.asarray(checkpoint["kp"], float), np.asarray(checkpoint["kd"], float)
+    if not (np.allclose(trained[0], kp) and np.allclose(trained[1], kd)):
+        raise ConfigError(f"the policy was trained with joint gains kp {np.round(trained[0], 1).tolist()} kd "
+                          f"{np.round(trained[1], 1).tolist()}, but {where} applies kp {np.round(kp, 1).tolist()} kd "
+                          f"{np.round(kd, 1).tolist()}; retrain it on these gains (robots/digit/constants.py KP, KD)")
+
+
 class PolicyController:
     """A trained policy as a `Controller`: its own gait clock, joint history and previous action.
 

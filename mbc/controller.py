@@ -89,9 +89,9 @@ class AlipControllerConfig:
     """One-step-ahead law (default) or the multi-step ALIP MPC with step timing."""
     output: Literal["pd", "torque"] = "pd"
     """Action space: PD targets reproducing the QP torque (the policy's space) or raw torque as tau_ff."""
-    kp: np.ndarray = field(default_factory=lambda: digit.KP_DEFAULT.copy())
+    kp: np.ndarray = field(default_factory=lambda: digit.KP.copy())
     """(12,) joint stiffness of the simulator, for the action-space conversion."""
-    kd: np.ndarray = field(default_factory=lambda: digit.KD_DEFAULT.copy())
+    kd: np.ndarray = field(default_factory=lambda: digit.KD.copy())
     limits: CommandLimits = field(default_factory=lambda: CommandLimits(turn_accel_mps2=TURN_ACCEL_LIMIT_MPS2))
     timing: TimingConfig = field(default_factory=TimingConfig)
     swing: SwingConfig = field(default_factory=SwingConfig)

@@ -83,7 +83,7 @@ def digit_mjspec(urdf_path: Path = URDF_PATH) -> mujoco.MjSpec:
         spec.add_actuator(
             name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
             gaintype=mujoco.mjtGain.mjGAIN_FIXED, biastype=mujoco.mjtBias.mjBIAS_AFFINE,
-            gainprm=[1.0] + [0.0] * 9, biasprm=[0.0, -digit.KP_DEFAULT[j], -digit.KD_DEFAULT[j]] + [0.0] * 7,
+            gainprm=[1.0] + [0.0] * 9, biasprm=[0.0, -digit.KP[j], -digit.KD[j]] + [0.0] * 7,
             forcelimited=mujoco.mjtLimited.mjLIMITED_TRUE,
             forcerange=[-digit.TORQUE_LIMIT_NM[j], digit.TORQUE_LIMIT_NM[j]],
         )

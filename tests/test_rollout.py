@@ -157,10 +157,10 @@ def test_pd_gains_of_controller_and_simulator_must_agree():
     from mbc.sim import SimConfig
     from robots.digit import constants as digit
 
-    stiffer = DigitSim(config=SimConfig(kp=2 * digit.KP_DEFAULT))
+    stiffer = DigitSim(config=SimConfig(kp=2 * digit.KP))
     with pytest.raises(ConfigError, match="PD gains other than the simulator's"):
         run_episode(stiffer, AlipController.for_digit(), Command(), 0.1)
-    run_episode(stiffer, AlipController.for_digit(kp=2 * digit.KP_DEFAULT), Command(), 0.1)  # told: fine
+    run_episode(stiffer, AlipController.for_digit(kp=2 * digit.KP), Command(), 0.1)  # told: fine
     run_episode(stiffer, AlipController.for_digit(output="torque"), Command(), 0.1)  # no PD conversion
 
 

@@ -1,22 +1,23 @@
 """`ClosedChainDigitSim`: Digit's closed-chain leg behind `DigitSim`'s interface (`robot="digit_closed_chain"`).
 
 Controllers keep the open chain's `RobotState` and `JointCommand`; this simulator translates
-(`mbc.sim.closed_chain_maps`). Each control period:
+(`mbc.sim.closed_chain_maps`). Each control period, with M = d q_open / d q_motor (6 x 6 per leg, loops
+closed, springs rigid) at the measured state (q, qd) = (q_open, qd_open) and motors at (q_m0, qd_m0):
 
-1. the command map turns `q_des` into motor targets by the loop's inverse kinematics (springs at
-   rest), `qd_des` into motor rates through M^-1 and `tau_ff` into motor torques through M^T, with
-   M = d q_open / d q_motor at the measured state;
-2. at every physics step (0.5 ms) each leg's motors apply
-   tau_m = K_m (q_m,des - q_m) + D_m (qd_m,des - qd_m) + tau_m,ff, clipped to
-   min(tau_max, 2 tau_max (1 - |qd_m| / qd_no-load)) (Agility's motor model: full torque up to half the
-   no-load speed of the facts, none at it), through a delay line of 6 physics steps (3 ms);
+1. the command map: the open chain's PD law at the mapped state, tau = Kp (q_des - q) + Kd (qd_des - qd)
+   + tau_ff, becomes the motor torque M^T tau (virtual work), and the motors keep the same stiffness
+   and damping as the joints while they move within the period, K_m = M^T Kp M, D_m = M^T Kd M:
+
+       tau_m(t) = M^T tau - K_m (q_m(t) - q_m0) - D_m (qd_m(t) - qd_m0);
+
+   so the joint torque a command asks for is the open chain's exactly at every control tick, however
+   far `q_des` is from the state (a target is an offset of the joints, not a pose the loop's inverse
+   kinematics must reach);
+2. at every physics step (0.5 ms) that torque goes through a delay line of 6 physics steps (3 ms) and
+   is clipped by the motor model both simulators share (`mbc.sim.motor`: full torque up to half the
+   no-load speed of the facts, none at it);
 3. the state map turns the closed chain's feet into open-chain joints (foot-pose IK).
 
-Gains (`gains=`): `"open"` (default) reproduces the open chain's joint stiffness and damping in
-motor space, K_m = M^T K_open M and D_m = M^T D_open M (full 6 x 6 per leg), because every
-controller's action is defined by those gains (the MBC encodes its torque as q_des through them, a
-policy's actions are scaled by them); `"facts"` uses roadrunner's diagonal sim-to-real motor gains
-(kp 80-140), which are 8-15x softer and meant for a policy trained on them.
 `springs=False` welds the shin and heel springs; `delay=False` removes the 3 ms torque delay: the
 switches that say which part of the closed chain a controller fails on.
 """
@@ -33,27 +34,23 @@ from mbc.robot import JointMap, as_slice
 from mbc.sim.closed_chain_maps import ClosedChainLegs, OpenChainLegs, stand_qpos
 from mbc.sim.closed_chain_model import SIDES, SPRING_JOINTS, closed_chain_mjspec
 from mbc.sim.digit_sim import DigitSim, SimConfig
+from mbc.sim.motor import TorqueSpeedLine
 from mbc.types import JointCommand, RobotState
 from robots.digit import closed_chain_constants as cc
 from robots.digit import constants as digit
 
-GAIN_MODES = ("open", "facts")
 _MOTORS = cc.LEG_MOTORS + cc.LEG_MOTORS
-_TORQUE_LIMIT_NM = np.array([m.torque_limit_nm for m in _MOTORS])
-_NO_LOAD_SPEED_RADPS = np.array([m.no_load_speed_radps for m in _MOTORS])
-_TWICE_LIMIT_NM, _LIMIT_DROP_PER_RADPS = 2.0 * _TORQUE_LIMIT_NM, 2.0 * _TORQUE_LIMIT_NM / _NO_LOAD_SPEED_RADPS
-"""The torque-speed line 2 tau_max (1 - |qd| / qd_no-load) as a - b |qd|."""
+MOTOR_LINE = TorqueSpeedLine([m.torque_limit_nm for m in _MOTORS], [m.no_load_speed_radps for m in _MOTORS])
+"""The motors' torque limits and torque-speed lines (motor coordinates)."""
 
 
 class ClosedChainDigitSim(DigitSim):
-    """Simulated closed-chain Digit; see the module docstring. Extra keywords: `gains`, `springs`, `delay`."""
+    """Simulated closed-chain Digit; see the module docstring. Extra keywords: `springs`, `delay`."""
 
     robot_name = "digit_closed_chain"
 
-    def __init__(self, terrain="flat", *, gains: str = "open", springs: bool = True, delay: bool = True, **kwargs) -> None:
-        if gains not in GAIN_MODES:
-            raise ConfigError(f"unknown gains {gains!r}; valid: {GAIN_MODES}")
-        self.gains, self.springs, self.torque_delay_steps = gains, springs, cc.TORQUE_DELAY_STEPS if delay else 0
+    def __init__(self, terrain="flat", *, springs: bool = True, delay: bool = True, **kwargs) -> None:
+        self.springs, self.torque_delay_steps = springs, cc.TORQUE_DELAY_STEPS if delay else 0
         super().__init__(terrain, **kwargs)
 
     @classmethod
@@ -74,10 +71,10 @@ class ClosedChainDigitSim(DigitSim):
         self.joint_map = JointMap(q=self._motor_q, v=self._motor_v)
         """The motors' columns in qpos and qvel (the joints the simulator drives; not the open chain's)."""
         self._stand_qpos = self.stand_qpos()
-        self._qpos_command = self._stand_qpos.copy()
-        self._q_open = digit.Q_STAND.copy()
+        self._qpos_solved = self._stand_qpos.copy()  # warm start of `set_state`'s loop solve
+        self._q_open, self._qd_open = digit.Q_STAND.copy(), np.zeros(12)  # the last state handed out
         self._jacobians = np.tile(np.eye(6), (2, 1, 1))  # M per leg, refreshed by `state`
-        self._targets = (self._qpos_command[self._motor_q].copy(), np.zeros(12), np.zeros(12))
+        self._targets = (self._stand_qpos[self._motor_q].copy(), np.zeros(12), np.zeros(12))
         self._stiffness, self._damping = np.zeros((12, 12)), np.zeros((12, 12))
         self._torques: deque[np.ndarray] = deque()
 
@@ -96,8 +93,8 @@ class ClosedChainDigitSim(DigitSim):
             self.rng = np.random.default_rng(seed)
         mujoco.mj_resetData(self.model, self.data)
         mujoco.mj_kinematics(self.model, self.data)
-        self._qpos_command = self._stand_qpos.copy()
-        self.data.qpos[:] = self._qpos_command
+        self._qpos_solved = self._stand_qpos.copy()
+        self.data.qpos[:] = self._qpos_solved
         self.data.qpos[:3] = [0.0, 0.0, self.terrain_height(0.0, 0.0) + digit.PELVIS_HEIGHT_STAND_M + 0.002]
         self._q_open = digit.Q_STAND.copy()
         self._push_substeps_left = 0
@@ -119,37 +116,29 @@ class ClosedChainDigitSim(DigitSim):
             self._torques.popleft()
         for _ in range(self.config.substeps):
             self._torques.append(self._motor_torque())
-            self.data.ctrl[:] = self._torques.popleft()
+            self.data.ctrl[:] = MOTOR_LINE.clip(self._torques.popleft(), self.data.qvel[self._motor_v])
             self._advance(1)
         if self._viewer is not None:
             self._viewer.sync()
         return self.state()
 
     def _command_motors(self, command: JointCommand) -> None:
-        """Motor targets, rates, feed-forward torques and gains of this control period (module docstring, 1)."""
-        targets = self.open_legs.foot_poses(command.q_des)
-        self._qpos_command = self.legs.solve(self._qpos_command, self.legs.loop_dofs, targets)
-        rates, feedforward = np.empty(12), np.empty(12)
+        """Motor torque at the period's start and the motor stiffness and damping about it (module docstring, 1)."""
+        torque = self._kp * (command.q_des - self._q_open) + self._kd * (command.qd_des - self._qd_open) + command.tau_ff
+        feedforward = np.empty(12)
         for side, jacobian in enumerate(self._jacobians):
             leg = slice(6 * side, 6 * side + 6)
-            rates[leg] = np.linalg.solve(jacobian, command.qd_des[leg])
-            feedforward[leg] = jacobian.T @ command.tau_ff[leg]
-        self._targets = (self._qpos_command[self._motor_q], rates, feedforward)
-        if self.gains == "facts":
-            self._stiffness, self._damping = np.diag([m.kp for m in _MOTORS]), np.diag([m.kd for m in _MOTORS])
-            return
-        for side, jacobian in enumerate(self._jacobians):
-            leg = slice(6 * side, 6 * side + 6)
+            feedforward[leg] = jacobian.T @ torque[leg]
             self._stiffness[leg, leg] = (jacobian.T * self._kp[leg]) @ jacobian
             self._damping[leg, leg] = (jacobian.T * self._kd[leg]) @ jacobian
+        self._targets = (self.data.qpos[self._motor_q].copy(), self.data.qvel[self._motor_v].copy(), feedforward)
 
     def _motor_torque(self) -> np.ndarray:
-        """PD at the motors this physics step, clipped to the torque limits and torque-speed lines."""
-        q_des, qd_des, tau_ff = self._targets
+        """tau_m(t) = M^T tau - K_m (q_m - q_m0) - D_m (qd_m - qd_m0) this physics step, times the motor strength."""
+        q0, qd0, feedforward = self._targets
         qd = self.data.qvel[self._motor_v]
-        tau = self._stiffness @ (q_des - self.data.qpos[self._motor_q]) + self._damping @ (qd_des - qd) + tau_ff
-        limit = np.minimum(_TORQUE_LIMIT_NM, np.maximum(_TWICE_LIMIT_NM - _LIMIT_DROP_PER_RADPS * np.abs(qd), 0.0))
-        return np.minimum(np.maximum(self._strength * tau, -limit), limit)
+        tau = feedforward - self._stiffness @ (self.data.qpos[self._motor_q] - q0) - self._damping @ (qd - qd0)
+        return self._strength * tau
 
     # --- state -----------------------------------------------------------------------------------
 
@@ -160,14 +149,15 @@ class ClosedChainDigitSim(DigitSim):
         legs.set(d.qpos)
         poses = [legs.foot_pose(side) for side in range(2)]
         self._q_open = open_legs.inverse(poses, self._q_open)
+        self._qd_open = qd = np.empty(12)
         leg_velocity = d.qvel.copy()
         leg_velocity[:6] = 0.0
-        qd, tau = np.empty(12), np.empty(12)
+        tau = np.empty(12)
         for side in range(2):
             leg = slice(6 * side, 6 * side + 6)
             open_jacobian = open_legs.jacobian(side)
-            qd[leg] = np.linalg.solve(open_jacobian, legs.foot_jacobian(side) @ leg_velocity)
             self._jacobians[side] = legs.motor_jacobian(side, open_jacobian)
+            qd[leg] = self._jacobians[side] @ d.qvel[self._motor_v][leg]
             tau[leg] = np.linalg.solve(self._jacobians[side].T, d.actuator_force[leg])
         force = d.sensordata[self._touch_adr]
         return RobotState(
@@ -179,8 +169,8 @@ class ClosedChainDigitSim(DigitSim):
     def set_state(self, state: RobotState) -> None:
         """Put the closed chain where `state` says (loops closed, springs at rest; leg rates through M^-1)."""
         d = self.data
-        self._qpos_command = self.legs.solve(self._qpos_command, self.legs.loop_dofs, self.open_legs.foot_poses(state.q))
-        d.qpos[:] = self._qpos_command
+        self._qpos_solved = self.legs.solve(self._qpos_solved, self.legs.loop_dofs, self.open_legs.foot_poses(state.q))
+        d.qpos[:] = self._qpos_solved
         d.qpos[:3], d.qpos[3:7] = state.base_pos, state.base_quat / np.linalg.norm(state.base_quat)
         mujoco.mj_kinematics(self.model, d)
         d.qvel[:] = 0.0
@@ -193,6 +183,7 @@ class ClosedChainDigitSim(DigitSim):
             d.qvel[self.legs.leg_dofs[side]] = self.legs.leg_rates(side, np.linalg.solve(jacobian, state.qd[leg]))
         d.time = state.time
         mujoco.mj_forward(self.model, d)
+        self._qd_open = np.array(state.qd, dtype=float)
 
     # --- randomization hooks -----------------------------------------------------------------------
 

@@ -3,7 +3,9 @@
 One `step` advances one control period (default 5 ms = 5 physics steps of 1 ms). The joint PD
 law tau = Kp (q_des - q) + Kd (qd_des - qd) + tau_ff runs inside MuJoCo at the physics rate, as
 an affine actuator clipped to the torque limits (see `mbc.robot.digit_mjspec`), so the wrapper
-adds one `ctrl` write and one state read per control period.
+adds one `ctrl` write and one state read per control period. The limits follow Digit's motor model
+(`mbc.sim.motor`, the closed chain's too): the torque-speed line at the joint speeds of the period's
+start, written into the actuators' force ranges once per control period.
 """
 
 from __future__ import annotations
@@ -17,9 +19,14 @@ import numpy as np
 from mbc.errors import ConfigError, MbcError
 from mbc.robot import JointMap, as_slice, digit_mjspec
 from mbc.sim.domain import DomainParams
+from mbc.sim.motor import TorqueSpeedLine
 from mbc.sim.terrain import TERRAIN_GROUP, TerrainConfig, add_terrain, make_terrain
 from mbc.types import CONTROL_PERIOD_S, JointCommand, RobotState
 from robots.digit import constants as digit
+
+
+JOINT_LINE = TorqueSpeedLine(digit.TORQUE_LIMIT_NM, digit.SPEED_LIMIT_RADPS)
+"""The open chain's joints' torque limits and torque-speed lines (Digit's motors through the leg)."""
 
 
 @dataclass(frozen=True)
@@ -30,9 +37,9 @@ class SimConfig:
     """Physics step [s]; the PD law runs at this rate."""
     control_dt_s: float = CONTROL_PERIOD_S
     """Control period [s]: one `step` call."""
-    kp: np.ndarray = field(default_factory=lambda: digit.KP_DEFAULT.copy())
+    kp: np.ndarray = field(default_factory=lambda: digit.KP.copy())
     """(12,) joint stiffness [N m / rad]."""
-    kd: np.ndarray = field(default_factory=lambda: digit.KD_DEFAULT.copy())
+    kd: np.ndarray = field(default_factory=lambda: digit.KD.copy())
     """(12,) joint damping [N m s / rad]."""
     fall_height_m: float = 0.6
     """The robot has fallen when the pelvis is less than this above the terrain below it [m]."""
@@ -123,6 +130,7 @@ class DigitSim:
     def _bind_robot(self) -> None:
         """Locate the robot's joints in the compiled model."""
         self.joint_map = JointMap.for_mujoco(self.model)
+        self._forcerange = self.model.actuator_forcerange  # a view: `step` writes the torque-speed limits
 
     # --- episode -------------------------------------------------------------------------------
 
@@ -145,6 +153,8 @@ class DigitSim:
         if not isinstance(command, JointCommand):
             raise ConfigError(f"step expects a JointCommand, got {type(command).__name__}")
         n = self.config.substeps
+        limit = JOINT_LINE.limit(self.data.qvel[self.joint_map.v])
+        self._forcerange[:, 0], self._forcerange[:, 1] = -limit, limit
         if self._delay_substeps:
             self._advance(self._delay_substeps)  # the previous command is still in effect
         self.data.ctrl[:] = self._ctrl(command)

@@ -81,9 +81,16 @@ _ARMATURE_KGM2 = (0.1738, 0.0679, 0.1205, 0.154, 0.066, 0.0066)
 _DAMPING_NMS = (1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
 _FRICTIONLOSS_NM = (1.0, 1.0, 0.5, 0.5, 1.0, 1.0)
 
-# Default joint PD gains of the simulator (applied at the simulation rate).
-_KP = (1000.0, 600.0, 1000.0, 1200.0, 300.0, 80.0)
-_KD = (20.0, 12.0, 20.0, 25.0, 8.0, 2.0)
+# The joint PD gains of the action space: what every JointCommand means, on every simulator
+# (tau = Kp (q_des - q) + Kd (qd_des - qd) + tau_ff at the physics rate). They are the stiffness a real
+# Digit runs, not a simulator convenience (docs/design.md, "Actuation"): roadrunner's sim-to-real motor
+# gains (kp 80 / 80 / 110 / 140 / 40 / 40 on hip roll, yaw, pitch, knee, toe A, toe B), seen through the
+# closed chain's motor Jacobian at the stand, are joint stiffnesses of 80 / 80 / 110 / 161 / 74 / 34 N m/rad;
+# the Isaac Lab Digit of the paper's lab runs 100 (hip roll, yaw) and 200 (hip pitch, knee). Hips and knee
+# take the Isaac Lab values (at most 1.8x roadrunner's), the ankle half of roadrunner's: the ALIP's stance
+# ankle is nearly passive, and the swing foot needs little.
+_KP = (100.0, 100.0, 200.0, 200.0, 40.0, 20.0)
+_KD = (10.0, 8.0, 10.0, 10.0, 3.0, 1.5)
 
 TOTAL_MASS_KG = PELVIS_MASS_KG + 2 * sum(link.mass_kg for link in LEFT_LEG)
 PELVIS_HEIGHT_STAND_M = 0.99631
@@ -136,9 +143,11 @@ SPEED_LIMIT_RADPS = _both_legs(_SPEED_LIMIT_RADPS)
 ARMATURE_KGM2 = _both_legs(_ARMATURE_KGM2)
 DAMPING_NMS = _both_legs(_DAMPING_NMS)
 FRICTIONLOSS_NM = _both_legs(_FRICTIONLOSS_NM)
-KP_DEFAULT = _both_legs(_KP)
-KD_DEFAULT = _both_legs(_KD)
+KP = _both_legs(_KP)
+"""(12,) joint stiffness of the action space [N m / rad]: the one definition (see the note above `_KP`)."""
+KD = _both_legs(_KD)
+"""(12,) joint damping of the action space [N m s / rad]."""
 
 for _array in (Q_MIN_RAD, Q_MAX_RAD, TORQUE_LIMIT_NM, SPEED_LIMIT_RADPS, ARMATURE_KGM2, DAMPING_NMS,
-               FRICTIONLOSS_NM, KP_DEFAULT, KD_DEFAULT, Q_STAND):
+               FRICTIONLOSS_NM, KP, KD, Q_STAND):
     _array.setflags(write=False)
