@@ -1,12 +1,15 @@
 """The closed-chain Digit: its model against the facts and the open chain, the maps between them, the
 static torque map against MuJoCo's constraint Jacobian, and what stands and walks on it."""
 
+import dataclasses
+
 import mujoco
 import numpy as np
 import pytest
 
 from mbc import AlipController
 from mbc.errors import ConfigError
+from mbc.passivity import PassivityConfig
 from mbc.rollout import run_episode
 from mbc.sim import DigitSim
 from mbc.sim.closed_chain_maps import ClosedChainLegs, OpenChainLegs, stand_qpos
@@ -37,8 +40,8 @@ def test_selected_by_name_and_unknown_names_refused(sim):
     assert type(DigitSim()) is DigitSim
     with pytest.raises(ConfigError, match="unknown robot 'cassie'; valid: \\['digit', 'digit_closed_chain'\\]"):
         DigitSim(robot="cassie")
-    with pytest.raises(ConfigError, match="unknown gains"):
-        DigitSim(robot="digit_closed_chain", gains="stiff")
+    with pytest.raises(ConfigError, match="gains"):  # one source of gains: the action space's (robots.digit.constants)
+        DigitSim(robot="digit_closed_chain", gains="facts")
 
 
 def test_loops_close_at_the_stand(sim):
@@ -121,12 +124,56 @@ def test_motor_delay_line_applies_each_torque_six_physics_steps_late():
     assert np.abs(computed).max() > 1.0  # torques, not zeros, went through it (the landing loads the legs)
 
 
-@pytest.mark.parametrize("switch", [{"springs": False}, {"delay": False}])
-def test_mbc_stands_and_walks_on_the_closed_chain_without_springs_or_without_delay(switch):
-    """The MBC, untouched, stands 2 s and walks 3 s at 0.3 m/s on the closed chain with one of its two
-    destabilizing parts switched off (with both on its stiff PD excites the springs; docs/closed_chain.md)."""
-    for command, duration in ((Command(), 2.0), (Command(vx=0.3), 3.0)):
+def soft_feedback_mbc() -> AlipController:
+    """The MBC with its QP's joint damping (Slotine-Li K_D) at a quarter of its default: about the action space's Kd."""
+    qp = PassivityConfig()
+    return AlipController.for_digit(qp=dataclasses.replace(qp, damping=tuple(0.25 * d for d in qp.damping)))
+
+
+@pytest.mark.parametrize(("switch", "controller"), [({"springs": False}, AlipController.for_digit),
+                                                    ({"delay": False}, soft_feedback_mbc)])
+def test_mbc_stands_and_walks_on_the_closed_chain_with_springs_welded_or_without_delay(switch, controller):
+    """The MBC stands 2 s and walks 5 s at 0.3 m/s on the closed chain with one of its two destabilizing parts
+    switched off: untouched with the springs welded (motor delay on); on the springs (no delay) once its own joint
+    feedback is as soft as the robot's gains. With both on it falls within a second (docs/closed_chain.md)."""
+    for command, duration in ((Command(), 2.0), (Command(vx=0.3), 5.0)):
         sim = DigitSim(robot="digit_closed_chain", **switch)
-        episode = run_episode(sim, AlipController.for_digit(), command, duration)
+        episode = run_episode(sim, controller(), command, duration)
         assert not episode.fell, f"fell at {episode.fall_time_s} s under {command}"
-        assert episode.summary()["distance_m"] > (0.3 if command.vx else -1.0)
+        assert episode.summary()["distance_m"] > (0.5 if command.vx else -1.0)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_command_map_gives_the_open_chains_pd_torque_at_the_mapped_state(sim, seed):
+    """M^-T of the motor torque the closed chain applies at a tick is Kp (q_des - q) + Kd (qd_des - qd) + tau_ff at
+    the state it handed out, exactly, for targets far from the state (a torque map, not a pose map)."""
+    rng = np.random.default_rng(seed)
+    sim.reset()
+    for _ in range(int(rng.integers(5, 40))):  # a loaded, moving stand: springs deflected, legs in motion
+        state = sim.step(JointCommand.hold(digit.Q_STAND + rng.uniform(-0.1, 0.1, 12)))
+    command = JointCommand(q_des=state.q + rng.uniform(-0.8, 0.8, 12), qd_des=rng.normal(0.0, 2.0, 12),
+                           tau_ff=rng.normal(0.0, 20.0, 12))
+    sim._command_motors(command)
+    motor_torque = sim._motor_torque()
+    expected = sim.kp * (command.q_des - state.q) + sim.kd * (command.qd_des - state.qd) + command.tau_ff
+    for side, jacobian in enumerate(sim._jacobians):
+        leg = slice(6 * side, 6 * side + 6)
+        np.testing.assert_allclose(np.linalg.solve(jacobian.T, motor_torque[leg]), expected[leg], rtol=1e-9, atol=1e-9)
+
+
+def test_the_action_spaces_gains_are_digits_and_have_one_source(sim):
+    """Every consumer reads robots.digit.constants KP, KD; the joint stiffness is at most twice roadrunner's
+    sim-to-real motor gains seen through the closed chain's motor Jacobian at the stand (M^-T K_motor M^-1)."""
+    from learn.action import ActionSpace
+    from mbc.controller import AlipControllerConfig
+    from mbc.sim import SimConfig
+
+    for kp, kd in ((SimConfig().kp, SimConfig().kd), (AlipControllerConfig().kp, AlipControllerConfig().kd),
+                   (ActionSpace().kp, ActionSpace().kd), (sim.kp, sim.kd), (DigitSim().kp, DigitSim().kd)):
+        np.testing.assert_array_equal(kp, digit.KP)
+        np.testing.assert_array_equal(kd, digit.KD)
+    sim.reset()
+    for side, jacobian in enumerate(sim._jacobians):
+        inverse = np.linalg.inv(jacobian)
+        roadrunner = np.diag(inverse.T @ np.diag([m.kp for m in cc.LEG_MOTORS]) @ inverse)
+        assert np.all(digit.KP[6 * side:6 * side + 6] <= 2.0 * roadrunner), (digit.KP, roadrunner)

@@ -66,3 +66,16 @@ def test_shipped_policy_walks_as_a_controller():
     assert episode.base_pos[-1][0] > 1.2  # 0.4 m/s after a start from standing
     mean = episode.mean_velocity(since_s=3.0)
     assert abs(mean[0] - 0.4) < 0.1 and abs(mean[1]) < 0.1
+
+
+def test_a_checkpoint_trained_with_other_gains_is_refused_by_simulators_and_fine_tuning(tmp_path):
+    from learn.finetune import FinetuneConfig, FinetuneRunner
+    from robots.digit import constants as digit
+
+    model = ActorCritic(ObservationLayout(EnvConfig().history_length).size)
+    path = tmp_path / "stiff.pt"
+    save_torch(path, deployable_checkpoint(model, EnvConfig(), ActionSpace(kp=10 * digit.KP, kd=digit.KD)))
+    with pytest.raises(ConfigError, match="PD gains other than the simulator's"):
+        run_episode(DigitSim(), PolicyController(path), Command(vx=0.3), 0.1)
+    with pytest.raises(ConfigError, match="trained with joint gains"):
+        FinetuneRunner(FinetuneConfig(init_policy=str(path), run_dir=str(tmp_path / "run")))

@@ -24,7 +24,6 @@ from mbc.sim.terrain import TERRAIN_GROUP, TerrainConfig, add_terrain, make_terr
 from mbc.types import CONTROL_PERIOD_S, JointCommand, RobotState
 from robots.digit import constants as digit
 
-
 JOINT_LINE = TorqueSpeedLine(digit.TORQUE_LIMIT_NM, digit.SPEED_LIMIT_RADPS)
 """The open chain's joints' torque limits and torque-speed lines (Digit's motors through the leg)."""
 
