@@ -17,10 +17,10 @@ from dataclasses import dataclass
 import tyro
 
 from learn.action import ActionSpace
+from learn.checkpoints import deployable_checkpoint
 from learn.config import EnvConfig
 from learn.finetune import DISTILLED
 from learn.policy import ActorCritic, load_checkpoint
-from learn.runner import deployable_checkpoint
 from learn.vec_env import RolloutRequest, make_vec_env
 
 

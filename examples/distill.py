@@ -15,8 +15,9 @@ import sys
 
 import tyro
 
+from learn.checkpoints import policy_summary
 from learn.config import DistillConfig
-from learn.runner import DaggerRunner, policy_summary
+from learn.dagger_runner import DaggerRunner
 from mbc.errors import MbcError
 
 

@@ -23,12 +23,13 @@ from typing import Literal
 import tyro
 
 from learn.config import DistillConfig, WorkerConfig
+from learn.dagger_runner import DaggerRunner
 from learn.evaluate import evaluate, write_outputs
 from learn.export import export_onnx
 from learn.finetune import DISTILLED, FinetuneConfig, FinetuneRunner
 from learn.ppo import Method
-from learn.runner import DaggerRunner
-from mbc.errors import MbcError
+from learn.storage import output_directory
+from mbc.errors import ConfigError, MbcError
 
 QUICK_PROTOCOLS = ("flat", "uphill_16", "downhill_10", "uneven_4", "max_velocity")
 
@@ -56,13 +57,18 @@ class Args:
 
 
 def main(args: Args) -> None:
-    args.run_dir.mkdir(parents=True, exist_ok=True)
+    if args.iterations is not None and args.iterations < 1:
+        raise ConfigError(f"--iterations must be >= 1 (PPO iterations of 6,400 steps each), got {args.iterations}")
+    if args.evaluation_seeds < 0:
+        raise ConfigError(f"--evaluation-seeds must be >= 0 (0: skip the comparison), got {args.evaluation_seeds}")
+    output_directory(args.run_dir, "--run-dir")
     init = DISTILLED
     if args.stage == "all":
         distill_dir = args.run_dir / "distill"
         resume = args.resume and (distill_dir / "training_state.pt").exists()
         init = DaggerRunner(DistillConfig(run_dir=distill_dir, seed=args.seed, resume=resume, workers=args.workers)).learn()
-    iterations = args.iterations or {"default": FinetuneConfig.iterations, "paper": 10_000}[args.preset]
+    iterations = args.iterations if args.iterations is not None else {"default": FinetuneConfig.iterations,
+                                                                       "paper": 10_000}[args.preset]
     finetune_dir = args.run_dir / "finetune"
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init,
                             iterations=iterations, workers=args.workers, label_every=args.label_every,

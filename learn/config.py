@@ -191,7 +191,8 @@ class WorkerConfig:
     """Environments per worker; the policy runs batched over them."""
 
     def __post_init__(self) -> None:
-        _require(self.workers >= 0 and self.envs_per_worker > 0, "workers must be >= 0 and envs_per_worker > 0")
+        _require(self.workers >= 0 and self.envs_per_worker > 0, "workers must be >= 0 (0: in this process) and "
+                 f"envs_per_worker >= 1, got workers={self.workers}, envs_per_worker={self.envs_per_worker}")
 
     @property
     def num_envs(self) -> int:

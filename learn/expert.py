@@ -13,8 +13,13 @@ import warnings
 import numpy as np
 
 from learn.action import ActionSpace
-from mbc.controller import AlipController, ControllerDiagnostics
-from mbc.types import Command, RobotState
+from mbc.controller import AlipController, AlipControllerConfig, ControllerDiagnostics
+from mbc.types import Command, CommandLimits, RobotState
+
+
+def teacher_command_limits() -> CommandLimits:
+    """The commands the expert follows (its range and turning limit); beyond them it acts for clipped ones."""
+    return AlipControllerConfig().limits
 
 
 class Expert:

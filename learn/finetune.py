@@ -21,13 +21,15 @@ import torch
 from tqdm import tqdm
 
 from learn.action import ActionSpace
+from learn.checkpoints import POLICY, SCALARS, TRAINING_STATE, deployable_checkpoint, save_torch
 from learn.config import EnvConfig, PolicyConfig, WorkerConfig, paper_randomization
+from learn.console import append_scalars, iteration_line, number
 from learn.curriculum import TerrainCurriculum, VelocityCurriculum
 from learn.observation import ObservationLayout
 from learn.policy import ActorCritic, check_gains, load_checkpoint
-from learn.ppo import Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
-from learn.runner import POLICY, TRAINING_STATE, deployable_checkpoint, rollout_seed, save_torch
-from learn.vec_env import RolloutRequest, make_vec_env
+from learn.ppo import METHODS, Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
+from learn.storage import output_directory
+from learn.vec_env import RolloutRequest, make_vec_env, rollout_seed
 from mbc.errors import ConfigError
 
 DISTILLED = Path(__file__).resolve().parents[1] / "policies" / "distilled.pt"
@@ -65,6 +67,15 @@ class FinetuneConfig:
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     workers: WorkerConfig = field(default_factory=WorkerConfig)
 
+    def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ConfigError(f"unknown method {self.method!r}; valid: {list(METHODS)}")
+        if self.iterations < 1 or self.steps_per_env < 1:
+            raise ConfigError(f"iterations and steps_per_env must be >= 1, got {self.iterations} and {self.steps_per_env}")
+        if self.label_every < 1 and self.method in ("ppf", "fullreg"):
+            raise ConfigError(f"{self.method} regularizes toward the expert's labels: label_every must be >= 1 "
+                              f"(1: every tick, 4: the default), got {self.label_every}")
+
     def regularizer(self) -> RegularizerConfig:
         return method_regularizer(self.method, self.label_every)
 
@@ -74,7 +85,7 @@ class FinetuneRunner:
 
     def __init__(self, config: FinetuneConfig) -> None:
         self.config = cfg = config
-        self.run_dir = Path(cfg.run_dir)
+        self.run_dir = output_directory(cfg.run_dir, "run_dir")
         state_path = self.run_dir / TRAINING_STATE
         if state_path.exists() and not cfg.resume:
             raise ConfigError(f"{self.run_dir} already holds a run; pass --resume to continue it or choose another run_dir")
@@ -98,7 +109,6 @@ class FinetuneRunner:
         self.forward_max = cfg.velocity.start_mps
         if state_path.exists():
             self._restore(state_path)
-        self.run_dir.mkdir(parents=True, exist_ok=True)
         (self.run_dir / "config.json").write_text(json.dumps(dataclasses.asdict(cfg), indent=2, default=str))
 
     def _restore(self, path: Path) -> None:
@@ -143,9 +153,26 @@ class FinetuneRunner:
                 self._checkpoint(iteration)
                 for name, value in scalars.items():
                     writer.add_scalar(name, value, iteration)
-                bar.write(f"iteration {iteration}: " + ", ".join(f"{k} {v:.4g}" for k, v in scalars.items()))
+                append_scalars(self.run_dir / SCALARS, iteration, scalars)
+                bar.write(iteration_line(iteration, cfg.iterations, self._figures(scalars)))
         writer.close()
+        print(f"fine-tuning ({cfg.method}) done: {self.samples:,} steps in {self.wall_s / 60:.1f} min "
+              f"({self.samples / max(self.wall_s, 1e-9):,.0f} steps/s); policy {self.run_dir / POLICY}; "
+              f"every figure per iteration: {self.run_dir / SCALARS} and TensorBoard ({self.run_dir / 'tensorboard'})")
         return self.run_dir / POLICY
+
+    @staticmethod
+    def _figures(scalars: dict[str, float]) -> dict[str, str]:
+        """The few figures of an iteration a user watches (all of them go to TensorBoard and `scalars.jsonl`)."""
+        iteration_s = scalars["time/collect_s"] + scalars["time/update_s"]
+        return {"samples": number(scalars["samples_total"]), "steps/s": number(scalars["time/steps_per_s"]),
+                "update": f"{scalars['time/update_s'] / iteration_s:.0%}",
+                "reward/tick": number(scalars["rollout/reward_per_tick"]),
+                "tracking": number(scalars["rollout/lin_vel_tracking"]),
+                "falls": f"{scalars['rollout/falls']:.0f}/{scalars['rollout/episodes']:.0f}",
+                "level": number(scalars["rollout/mean_terrain_level"], 2),
+                "vx max": number(scalars["curriculum/forward_max_mps"], 2),
+                "reg w": number(scalars.get("loss/regularization_weight", float("nan")), 2)}
 
     def _scalars(self, rollout, stats: dict[str, float], collect_s: float, update_s: float) -> dict[str, float]:
         episodes = rollout.episodes
@@ -155,7 +182,8 @@ class FinetuneRunner:
                     "rollout/lin_vel_tracking": rollout.reward_terms["lin_vel_tracking"],
                     "rollout/falls": float(sum(e["fell"] for e in episodes)), "rollout/episodes": float(len(episodes)),
                     "rollout/mean_terrain_level": float(np.mean([e["level"] for e in episodes])) if episodes else np.nan,
-                    "rollout/samples_per_s": rollout.samples / collect_s, "time/update_s": update_s,
+                    "rollout/samples_per_s": rollout.samples / collect_s, "time/collect_s": collect_s, "time/update_s": update_s,
+                    "time/steps_per_s": rollout.samples / (collect_s + update_s),
                     "curriculum/forward_max_mps": self.forward_max, "samples_total": float(self.samples)}
         return scalars
 

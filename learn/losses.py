@@ -66,10 +66,15 @@ def expert_regularizer(mean_action: torch.Tensor, expert_action: torch.Tensor, w
     return (weight * squared * labelled.float()).sum() / count.clamp(min=1.0)
 
 
-def lipschitz_penalty(network, inputs: torch.Tensor, generator: torch.Generator | None = None) -> torch.Tensor:
+def lipschitz_penalty(network, inputs: torch.Tensor, generator: torch.Generator | None = None,
+                      samples: int | None = None) -> torch.Tensor:
     r"""E_s[ ||d mu / d s||_F^2 ] at `inputs`, by an unbiased random projection: for v ~ N(0, I),
     E_v[ ||J^T v||^2 ] = trace(J J^T) = ||J||_F^2, so one backward pass (with a graph, so that the
-    penalty itself can be differentiated) per batch instead of one per output."""
+    penalty itself can be differentiated) per batch instead of one per output. With `samples`, on that
+    many rows of `inputs` drawn without replacement: the mean over a uniform subset is an unbiased
+    estimate of the mean over all rows, and the double backward's cost shrinks with the subset."""
+    if samples is not None and samples < len(inputs):
+        inputs = inputs[torch.randperm(len(inputs), generator=generator)[:samples]]
     inputs = inputs.detach().requires_grad_(True)
     outputs = network(inputs)
     v = torch.randn(outputs.shape, generator=generator, dtype=outputs.dtype)

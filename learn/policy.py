@@ -9,6 +9,7 @@ by a mean and standard deviation saved with the networks, so a checkpoint is sel
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 
 import numpy as np
@@ -95,6 +96,10 @@ class ActorCritic(nn.Module):
         return model
 
 
+WHAT_A_CHECKPOINT_IS = ("a policy checkpoint is the policy.pt a training run writes (examples/distill.py, "
+                        "examples/distill_and_finetune.py) or one of policies/*.pt")
+
+
 def load_checkpoint(path: str | Path) -> dict:
     """A checkpoint file's dict (tensors and plain data only: `weights_only=True`), with clear errors."""
     path = Path(path)
@@ -102,10 +107,11 @@ def load_checkpoint(path: str | Path) -> dict:
         raise ConfigError(f"no policy checkpoint at {path}")
     try:
         checkpoint = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as exc:  # pickle, zip or torch format errors: not a checkpoint of ours
-        raise ConfigError(f"{path} is not a policy checkpoint ({type(exc).__name__}: {exc})") from exc
+    except Exception as exc:  # pickle, zip or torch format errors: not a checkpoint of ours (torch's text says nothing useful)
+        raise ConfigError(f"{path} is not a policy checkpoint: {WHAT_A_CHECKPOINT_IS}") from exc
     if not isinstance(checkpoint, dict) or checkpoint.get("format") != CHECKPOINT_FORMAT:
-        raise ConfigError(f"{path} is not a policy checkpoint of this project (expected format {CHECKPOINT_FORMAT!r})")
+        raise ConfigError(f"{path} is not a policy checkpoint of this project (expected format {CHECKPOINT_FORMAT!r}): "
+                          f"{WHAT_A_CHECKPOINT_IS}")
     return checkpoint
 
 
@@ -137,8 +143,9 @@ class PolicyController:
                               f"({self.builder.layout.size})")
         self.action_space = ActionSpace(np.asarray(checkpoint["kp"]), np.asarray(checkpoint["kd"]))
         low, high = np.asarray(checkpoint["command_range"], float).tolist()  # (2, 3): the trained command range
-        self.command_limits = CommandLimits(*zip(low, high))
-        """The trained command range; beyond it commands are clipped."""
+        self.command_limits = CommandLimits(*zip(low, high), turn_accel_mps2=float(checkpoint.get("turn_accel_mps2", math.inf)))
+        """The commands it was trained on (a distilled policy: its teacher's, turning limit included); beyond them
+        commands are clipped and the episode summary counts the ticks (`clipped_command_ticks`)."""
         self.path = Path(path)
         self._started = False
 

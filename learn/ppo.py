@@ -54,6 +54,9 @@ class RegularizerConfig:
     command, and pulling toward it fights the tracking reward (`Expert.followed`)."""
     lipschitz_alpha: float = 1e-4
     """alpha of the Lipschitz penalty alpha E[||grad_s mu(s)||^2] (the paper's 1e-4; 0: off)."""
+    lipschitz_samples: int | None = 256
+    """States of each minibatch the penalty is estimated on (drawn anew each time; None: all): an unbiased
+    estimate of the minibatch's mean, at a fraction of the double backward's cost (docs/design.md)."""
 
     def __post_init__(self) -> None:
         if self.weighting not in ("mar", "constant", "none"):
@@ -62,6 +65,8 @@ class RegularizerConfig:
         if unknown or len(self.monitors) != len(self.deltas) or any(d <= 0 for d in self.deltas):
             raise ConfigError(f"monitors must be among {MONITOR_NAMES} with one positive delta each; "
                               f"got {self.monitors}, {self.deltas}")
+        if self.lipschitz_samples is not None and self.lipschitz_samples < 1:
+            raise ConfigError(f"lipschitz_samples must be >= 1 or None, got {self.lipschitz_samples}")
         if self.label_every < 1 and self.weighting != "none":
             raise ConfigError("a regularizer toward the expert needs labels: label_every >= 1")
 
@@ -204,7 +209,7 @@ class Ppo:
             terms["regularizer"] = expert_regularizer(distribution.mean, expert_actions, weights, labelled)
         if self.regularizer.lipschitz_alpha > 0:
             terms["lipschitz"] = self.regularizer.lipschitz_alpha * lipschitz_penalty(
-                self.model.actor, self.model.normalizer(obs), self.generator)
+                self.model.actor, self.model.normalizer(obs), self.generator, self.regularizer.lipschitz_samples)
         return terms
 
     def _kl(self, old_mean: torch.Tensor, old_std: torch.Tensor, obs: torch.Tensor) -> float:

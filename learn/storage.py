@@ -18,6 +18,18 @@ from mbc.errors import ConfigError
 _SHARD = re.compile(r"shard_(\d{5})\.npz$")
 
 
+def output_directory(path: Path, option: str) -> Path:
+    """`path`, created if missing; a `ConfigError` naming `option` when it is a file or cannot be created."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ConfigError(f"{option} {path} is a file; give a directory (it is created if missing)")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ConfigError(f"cannot create {option} {path}: {error.strerror}") from error
+    return path
+
+
 def atomic_write(path: Path, write) -> None:
     """Call `write(file)` on a temporary file beside `path`, flush it to disk, then rename it to `path`."""
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -35,6 +35,11 @@ from mbc.errors import ConfigError
 TIMING_PARTS = ("expert", "physics", "policy", "total")
 
 
+def rollout_seed(seed: int, iteration: int) -> int:
+    """The seed of a run's rollout `iteration`: a rollout depends only on (run seed, iteration)."""
+    return int(np.random.SeedSequence([seed, iteration]).generate_state(1)[0])
+
+
 @dataclass(frozen=True)
 class RolloutRequest:
     """What to run: `steps` ticks per environment."""

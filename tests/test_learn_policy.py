@@ -7,10 +7,10 @@ import pytest
 import torch
 
 from learn.action import ACTION_DIM, ActionSpace
+from learn.checkpoints import deployable_checkpoint, save_torch
 from learn.config import EnvConfig
 from learn.observation import ObservationLayout
 from learn.policy import ActorCritic, Normalizer, PolicyController, load_checkpoint
-from learn.runner import deployable_checkpoint, save_torch
 from mbc.errors import ConfigError
 from mbc.rollout import run_episode
 from mbc.sim import DigitSim
@@ -79,3 +79,23 @@ def test_a_checkpoint_trained_with_other_gains_is_refused_by_simulators_and_fine
         run_episode(DigitSim(), PolicyController(path), Command(vx=0.3), 0.1)
     with pytest.raises(ConfigError, match="trained with joint gains"):
         FinetuneRunner(FinetuneConfig(init_policy=str(path), run_dir=str(tmp_path / "run")))
+
+
+def test_a_policy_follows_the_commands_it_was_trained_on_turning_limit_included(tmp_path):
+    """A distilled policy's limits are its teacher's: (0.8 m/s, 0, 0.8 rad/s) is turned at 0.3 / 0.8 rad/s,
+    and the episode summary counts the clipped ticks, as for the MBC."""
+    from learn.expert import teacher_command_limits
+
+    model = ActorCritic(ObservationLayout(EnvConfig().history_length).size)
+    path = tmp_path / "distilled.pt"
+    teacher = teacher_command_limits()
+    save_torch(path, deployable_checkpoint(model, EnvConfig(), ActionSpace(), teacher.turn_accel_mps2))
+    controller = PolicyController(path)
+    assert controller.command_limits.turn_accel_mps2 == teacher.turn_accel_mps2 == pytest.approx(0.3)
+    (vx, vy, yaw_rate), clipped = controller.command_limits.clip(Command(vx=0.8, yaw_rate=0.8))
+    assert clipped and (vx, vy) == (0.8, 0.0) and yaw_rate == pytest.approx(0.3 / 0.8)
+    episode = run_episode(DigitSim(), controller, Command(vx=0.8, yaw_rate=0.8), 0.05)
+    assert episode.summary()["clipped_command_ticks"] == len(episode.time)
+    untrained = tmp_path / "any.pt"  # trained on every command (fine-tuned): no turning limit
+    save_torch(untrained, deployable_checkpoint(model, EnvConfig(), ActionSpace()))
+    assert not PolicyController(untrained).command_limits.clip(Command(vx=0.8, yaw_rate=0.8))[1]

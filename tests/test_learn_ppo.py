@@ -77,6 +77,22 @@ def test_lipschitz_penalty_of_a_linear_policy_is_its_squared_weight_norm():
     assert estimate == pytest.approx(float(linear.weight.square().sum()), rel=0.03)
 
 
+def test_lipschitz_penalty_on_a_subset_is_unbiased_for_the_full_batch_of_a_nonlinear_policy():
+    """The subset estimate (random rows, random projection) averages to the exact batch mean of ||J(s)||_F^2,
+    which for an ELU network differs from state to state (so a biased row choice would show)."""
+    torch.manual_seed(0)
+    network = torch.nn.Sequential(torch.nn.Linear(5, 16), torch.nn.ELU(), torch.nn.Linear(16, 3))
+    inputs = torch.randn(64, 5) * 2.0
+    per_state = torch.stack([torch.autograd.functional.jacobian(network, x).square().sum() for x in inputs])
+    exact = float(per_state.mean())
+    assert float(per_state.std()) > 0.1 * exact  # the rows differ: which rows are drawn matters
+    generator = torch.Generator().manual_seed(2)
+    draws = torch.stack([lipschitz_penalty(network, inputs, generator, samples=8).detach() for _ in range(4000)])
+    standard_error = float(draws.std()) / len(draws) ** 0.5
+    assert abs(float(draws.mean()) - exact) < 4 * standard_error
+    assert float(lipschitz_penalty(network, inputs, generator, samples=1000)) > 0  # more samples than rows: all rows
+
+
 def test_variants_differ_only_in_their_regularizer():
     configs = {method: method_regularizer(method) for method in METHODS}
     assert configs["ppf"].weighting == "mar" and configs["ppf"].monitors == ("com_vertical_velocity_mps",)
@@ -197,10 +213,10 @@ def test_a_short_ppf_run_improves_the_reward_of_a_degraded_policy(tmp_path):
     """PPF from the shipped policy with its left-knee output shifted (it limps): six iterations on a
     fixed seed raise the deterministic policy's reward (the MAR-weighted pull toward the expert and
     the task reward agree here)."""
+    from learn.checkpoints import save_torch
     from learn.config import CommandSampling
     from learn.finetune import DISTILLED
     from learn.policy import load_checkpoint
-    from learn.runner import save_torch
 
     checkpoint = load_checkpoint(DISTILLED)
     model = ActorCritic.from_checkpoint(checkpoint)

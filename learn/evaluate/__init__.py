@@ -25,6 +25,7 @@ from learn.evaluate.metrics import sustained_velocity
 from learn.evaluate.protocols import DEFAULT_PROTOCOLS, Job, make_controller, parse_protocol, run_job
 from learn.evaluate.results import Results
 from learn.evaluate.shifts import SHIFTS, get_shift
+from learn.storage import output_directory
 from mbc.errors import ConfigError
 
 __all__ = ["DEFAULT_PROTOCOLS", "SHIFTS", "Results", "check_protocols", "controller_labels", "evaluate",
@@ -52,6 +53,8 @@ def evaluate(controllers: Sequence[str], protocols: Sequence[str] = DEFAULT_PROT
     gait is run for that when 'mbc' is not among the controllers)."""
     if seeds < 1:
         raise ConfigError(f"seeds must be >= 1, got {seeds}")
+    if workers is not None and workers < 1:
+        raise ConfigError(f"workers must be >= 1 (default: every core), got {workers}")
     check_protocols(protocols)
     for name in shifts:
         get_shift(name)
@@ -102,8 +105,7 @@ def _run(jobs: list[Job], workers: int, progress: bool) -> list[dict]:
 
 def write_outputs(results: Results, out_dir: Path, figures: bool = True) -> list[Path]:
     """Per protocol NAME.md and NAME.csv, results.json with every raw figure and seed, and the PNG figures."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    out_dir = output_directory(out_dir, "--out")
     written = []
     for protocol in results.protocols:
         for suffix, text in ((".md", results.table(protocol) + "\n"), (".csv", results.csv(protocol))):

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from learn.evaluate import DEFAULT_PROTOCOLS, SHIFTS, evaluate, write_outputs
 from learn.evaluate.protocols import __doc__ as PROTOCOLS_DOC
+from learn.storage import output_directory
 from mbc.errors import ConfigError
 
 
@@ -25,6 +26,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None, help="directory for NAME.md, NAME.csv, results.json, *.png")
     args = parser.parse_args(argv)
     try:
+        if args.out is not None:
+            output_directory(args.out, "--out")  # before the work, not after it
         results = evaluate(args.controllers, args.protocols, args.seeds, args.workers, args.shifts, progress=True)
     except ConfigError as error:
         print(f"error: {error}", file=sys.stderr)

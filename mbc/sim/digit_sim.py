@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import mujoco
 import numpy as np
@@ -73,13 +74,19 @@ class DigitSim:
 
     robot_name = "digit"
     """The name that selects this simulator's robot in `DigitSim(..., robot=NAME)`."""
+    robots: ClassVar[dict[str, type[DigitSim]]] = {}
+    """Every simulator selectable by `robot=`: each subclass registers itself by its `robot_name` (`mbc.sim`
+    imports them all), so this module imports none of them."""
+
+    def __init_subclass__(cls, **kwargs) -> None:
+        super().__init_subclass__(**kwargs)
+        DigitSim.robots[cls.robot_name] = cls
 
     def __new__(cls, *args, robot: str = "digit", **kwargs):
         if cls is DigitSim and robot != cls.robot_name:
-            robots = {sub.robot_name: sub for sub in _robot_simulators()}
-            if robot not in robots:
-                raise ConfigError(f"unknown robot {robot!r}; valid: {sorted(robots)}")
-            cls = robots[robot]
+            if robot not in DigitSim.robots:
+                raise ConfigError(f"unknown robot {robot!r}; valid: {sorted(DigitSim.robots)}")
+            cls = DigitSim.robots[robot]
         return super().__new__(cls)
 
     def __init__(self, terrain: str | TerrainConfig = "flat", *, seed: int = 0, config: SimConfig | None = None,
@@ -306,8 +313,4 @@ class DigitSim:
             self._viewer = None
 
 
-def _robot_simulators() -> tuple[type[DigitSim], ...]:
-    """Every simulator selectable by `robot=` (imported here: they subclass `DigitSim`)."""
-    from mbc.sim.closed_chain_sim import ClosedChainDigitSim
-
-    return (DigitSim, ClosedChainDigitSim)
+DigitSim.robots[DigitSim.robot_name] = DigitSim

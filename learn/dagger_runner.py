@@ -19,35 +19,17 @@ import torch
 from tqdm import tqdm
 
 from learn.action import ActionSpace
-from learn.config import DistillConfig, EnvConfig
+from learn.checkpoints import POLICY, SCALARS, TRAINING_STATE, deployable_checkpoint, save_torch
+from learn.config import DistillConfig
+from learn.console import append_scalars, iteration_line, number
 from learn.dagger import DaggerFit, cosine_learning_rate, usable_labels
+from learn.expert import teacher_command_limits
 from learn.observation import ObservationLayout
-from learn.policy import ActorCritic, load_checkpoint
-from learn.storage import LabelledDataset, atomic_write
-from learn.vec_env import RolloutRequest, VecEnv, make_vec_env
+from learn.policy import ActorCritic
+from learn.storage import LabelledDataset, output_directory
+from learn.vec_env import RolloutRequest, VecEnv, make_vec_env, rollout_seed
 from mbc.errors import ConfigError
 from mbc.types import CONTROL_PERIOD_S
-
-TRAINING_STATE = "training_state.pt"
-POLICY = "policy.pt"
-
-
-def deployable_checkpoint(model: ActorCritic, env: EnvConfig, action_space: ActionSpace, **extra) -> dict:
-    """The networks plus what `PolicyController` needs to run them: history length, PD gains of the
-    action space, and the trained command range."""
-    sampling = env.commands
-    command_range = [[sampling.vx_mps[0], sampling.vy_mps[0], sampling.yaw_rate_radps[0]],
-                     [sampling.vx_mps[1], sampling.vy_mps[1], sampling.yaw_rate_radps[1]]]
-    return model.checkpoint(history_length=env.history_length, kp=action_space.kp.tolist(), kd=action_space.kd.tolist(),
-                            command_range=command_range, **extra)
-
-
-def save_torch(path: Path, payload: dict) -> None:
-    atomic_write(path, lambda file: torch.save(payload, file))
-
-
-def rollout_seed(seed: int, iteration: int) -> int:
-    return int(np.random.SeedSequence([seed, iteration]).generate_state(1)[0])
 
 
 class DaggerRunner:
@@ -55,16 +37,17 @@ class DaggerRunner:
 
     def __init__(self, config: DistillConfig) -> None:
         self.config = config
-        self.run_dir = Path(config.run_dir)
+        self.run_dir = output_directory(config.run_dir, "run_dir")
         state_path = self.run_dir / TRAINING_STATE
         if state_path.exists() and not config.resume:
             raise ConfigError(f"{self.run_dir} already holds a run; pass --resume to continue it or choose another run_dir")
         if config.resume and not state_path.exists() and not LabelledDataset(self.run_dir / "data").shards_on_disk():
             raise ConfigError(f"nothing to resume in {self.run_dir} (no {TRAINING_STATE})")
-        self.run_dir.mkdir(parents=True, exist_ok=True)
         layout = ObservationLayout(config.env.history_length)
         self.model = ActorCritic(layout.size, config.policy)
         self.action_space = ActionSpace()
+        self.turn_accel_mps2 = teacher_command_limits().turn_accel_mps2
+        """The teacher's turning limit: a distilled policy learned only commands its teacher followed."""
         self.fitter = DaggerFit(self.model, config.dagger.learning_rate)
         self.dataset = LabelledDataset(self.run_dir / "data", config.dagger.max_dataset_samples)
         self.start_iteration, self.samples, self.wall_s = 0, 0, 0.0
@@ -100,7 +83,8 @@ class DaggerRunner:
                     self.dataset.load([iteration])
                     self.samples += self.dataset.visited[iteration]
                 else:
-                    policy = None if beta >= 1.0 else deployable_checkpoint(self.model, cfg.env, self.action_space)
+                    policy = None if beta >= 1.0 else deployable_checkpoint(self.model, cfg.env, self.action_space,
+                                                                                       self.turn_accel_mps2)
                     rollout = vec_env.collect(RolloutRequest(policy, dagger.steps_per_env, rollout_seed(cfg.seed, iteration),
                                                              beta=beta))
                     usable = usable_labels(rollout, discard)
@@ -128,22 +112,24 @@ class DaggerRunner:
                 self._checkpoint(iteration)
                 for name, value in scalars.items():
                     writer.add_scalar(name, value, iteration)
-                bar.write(f"iteration {iteration}: " + ", ".join(f"{k} {v:.4g}" for k, v in scalars.items()))
+                append_scalars(self.run_dir / SCALARS, iteration, scalars)
+                bar.write(iteration_line(iteration, dagger.iterations, {
+                    "beta": number(beta, 2), "samples": number(self.samples),
+                    "labelled/s": number(scalars.get("rollout/samples_per_s", float("nan"))),
+                    "fit": f"{scalars['time/fit_s'] / (time.perf_counter() - start):.0%}",
+                    "on-policy loss": number(scalars.get("loss/on_policy", float("nan"))),
+                    "fit loss": number(scalars["loss/fit_last_tenth"]), "dataset": number(scalars["dataset/samples"])}))
         finally:
             writer.close()
             if own_env:
                 vec_env.close()
+        print(f"DAgger done: {self.samples:,} labelled states in {self.wall_s / 60:.1f} min; policy {self.run_dir / POLICY}; "
+              f"every figure per iteration: {self.run_dir / SCALARS} and TensorBoard ({self.run_dir / 'tensorboard'})")
         return self.run_dir / POLICY
 
     def _checkpoint(self, iteration: int) -> None:
-        policy = deployable_checkpoint(self.model, self.config.env, self.action_space, iteration=iteration,
+        policy = deployable_checkpoint(self.model, self.config.env, self.action_space, self.turn_accel_mps2, iteration=iteration,
                                        samples=self.samples, wall_s=self.wall_s)
         save_torch(self.run_dir / POLICY, policy)
         save_torch(self.run_dir / TRAINING_STATE, {"policy": policy, "optimizer": self.fitter.optimizer.state_dict(),
                                                    "iteration": iteration, "samples": self.samples, "wall_s": self.wall_s})
-
-
-def policy_summary(path: str | Path) -> dict:
-    """Iteration, samples and wall time recorded in a policy checkpoint."""
-    checkpoint = load_checkpoint(path)
-    return {key: checkpoint.get(key) for key in ("iteration", "samples", "wall_s")}
