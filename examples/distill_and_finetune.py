@@ -80,7 +80,8 @@ def main(args: Args) -> None:
     print(f"fine-tuned policy: {policy}; ONNX: {onnx}")
     if args.evaluation_seeds:
         results = evaluate(["mbc", str(init), str(policy)], QUICK_PROTOCOLS, args.evaluation_seeds,
-                           args.workers.workers, progress=True)
+                           max(args.workers.workers, 1), progress=True, backend=args.workers.backend,
+                           ray_address=args.workers.ray_address)
         write_outputs(results, args.run_dir / "evaluation")
         print(results.table())
 

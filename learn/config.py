@@ -5,6 +5,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated, Literal
+
+import tyro
 
 from mbc.errors import ConfigError
 
@@ -186,13 +189,21 @@ class WorkerConfig:
     """Parallel simulation."""
 
     workers: int = 2
-    """Worker processes (0: run the environments in this process)."""
+    """Worker processes, or Ray actors with `backend="ray"` (0: run the environments in this process)."""
     envs_per_worker: int = 8
     """Environments per worker; the policy runs batched over them."""
+    backend: Annotated[Literal["process", "ray"], tyro.conf.arg(prefix_name=False)] = "process"
+    """Where the workers run: processes on this machine, or actors of a Ray cluster (`pip install -e '.[ray]'`)."""
+    ray_address: Annotated[str | None, tyro.conf.arg(prefix_name=False)] = None
+    """The Ray cluster to join ('auto' on one of its nodes, or 'ray://HEAD:10001'); None: a local cluster, which is
+    started only where loopback is the only network interface (`learn.ray_vec_env`, docs/cluster.md)."""
 
     def __post_init__(self) -> None:
         _require(self.workers >= 0 and self.envs_per_worker > 0, "workers must be >= 0 (0: in this process) and "
                  f"envs_per_worker >= 1, got workers={self.workers}, envs_per_worker={self.envs_per_worker}")
+        _require(self.backend in ("process", "ray"), f"backend must be 'process' or 'ray', got {self.backend!r}")
+        _require(self.backend == "process" or self.workers >= 1, "the ray backend needs workers >= 1 (actors)")
+        _require(self.ray_address is None or self.backend == "ray", "ray_address is for backend='ray'")
 
     @property
     def num_envs(self) -> int:

@@ -27,7 +27,7 @@ from learn.expert import teacher_command_limits
 from learn.observation import ObservationLayout
 from learn.policy import ActorCritic
 from learn.storage import LabelledDataset, output_directory
-from learn.vec_env import RolloutRequest, VecEnv, make_vec_env, rollout_seed
+from learn.vec_env import RolloutRequest, VecEnv, rollout_seed, vec_env_for
 from mbc.errors import ConfigError
 from mbc.types import CONTROL_PERIOD_S
 
@@ -69,7 +69,7 @@ class DaggerRunner:
         from torch.utils.tensorboard import SummaryWriter
 
         own_env = vec_env is None
-        vec_env = vec_env or make_vec_env(cfg.env, cfg.workers.workers, cfg.workers.envs_per_worker)
+        vec_env = vec_env or vec_env_for(cfg.env, cfg.workers)
         writer = SummaryWriter(str(self.run_dir / "tensorboard"))
         discard = int(round(dagger.discard_before_fall_s / CONTROL_PERIOD_S))
         try:

@@ -29,7 +29,7 @@ from learn.observation import ObservationLayout
 from learn.policy import ActorCritic, check_gains, load_checkpoint
 from learn.ppo import METHODS, Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
 from learn.storage import output_directory
-from learn.vec_env import RolloutRequest, make_vec_env, rollout_seed
+from learn.vec_env import RolloutRequest, rollout_seed, vec_env_for
 from mbc.errors import ConfigError
 
 DISTILLED = Path(__file__).resolve().parents[1] / "policies" / "distilled.pt"
@@ -128,8 +128,7 @@ class FinetuneRunner:
         regularizer = cfg.regularizer()
         curriculum = cfg.curriculum if cfg.terrain_curriculum else None
         writer = SummaryWriter(str(self.run_dir / "tensorboard"))
-        with make_vec_env(self.env_config, cfg.workers.workers, cfg.workers.envs_per_worker, regularizer.uses_expert,
-                          curriculum) as vec_env:
+        with vec_env_for(self.env_config, cfg.workers, regularizer.uses_expert, curriculum) as vec_env:
             bar = tqdm(range(self.start_iteration, cfg.iterations), desc=f"fine-tuning ({cfg.method})", unit="it",
                        initial=self.start_iteration, total=cfg.iterations, disable=None)
             for iteration in bar:

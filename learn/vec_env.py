@@ -5,9 +5,8 @@ A rollout is requested as a `RolloutRequest` (a policy snapshot, a number of tic
 expert labels and mixes in) and comes back as one `Rollout` per group. The policy does not change
 within a rollout, so each worker runs it on its own copy (one batched forward per tick over its
 environments) and the workers exchange nothing per tick: a rollout costs two messages per worker,
-not two per tick. `VecEnv` is the interface the algorithms see; `InProcessVecEnv` and
-`ProcessVecEnv` implement it, and a distributed engine (Ray actors each holding an `EnvGroup`) would
-implement the same two methods.
+not two per tick. `VecEnv` is the interface the algorithms see; `InProcessVecEnv`, `ProcessVecEnv`
+and `learn.ray_vec_env.RayVecEnv` (Ray actors each holding an `EnvGroup`) implement it.
 
 DAgger's rollouts start fresh episodes, seeded from (request seed, environment index), so a rollout
 depends only on its request. PPO's continue the episodes of the previous rollout (`continue_episodes`),
@@ -26,7 +25,7 @@ import numpy as np
 import torch
 
 from learn.action import ACTION_DIM
-from learn.config import EnvConfig
+from learn.config import EnvConfig, WorkerConfig
 from learn.curriculum import TerrainCurriculum
 from learn.env import MONITOR_NAMES, WalkEnv
 from learn.policy import ActorCritic
@@ -309,8 +308,23 @@ class ProcessVecEnv(VecEnv):
 
 
 def make_vec_env(config: EnvConfig, workers: int, envs_per_worker: int, with_expert: bool = True,
-                 curriculum: TerrainCurriculum | None = None) -> VecEnv:
-    """`ProcessVecEnv` with `workers` > 0, else all environments in this process."""
+                 curriculum: TerrainCurriculum | None = None, backend: str = "process",
+                 ray_address: str | None = None) -> VecEnv:
+    """`workers` groups of `envs_per_worker` environments: worker processes (`backend="process"`), Ray actors
+    (`"ray"`, `learn.ray_vec_env`), or with `workers` = 0 all in this process."""
+    if backend == "ray":
+        from learn.ray_vec_env import RayVecEnv  # Ray is imported only when asked for
+
+        return RayVecEnv(config, workers, envs_per_worker, with_expert, curriculum, ray_address)
+    if backend != "process":
+        raise ConfigError(f"unknown backend {backend!r}; valid: ['process', 'ray']")
     if workers <= 0:
         return InProcessVecEnv(config, envs_per_worker, with_expert, curriculum)
     return ProcessVecEnv(config, workers, envs_per_worker, with_expert, curriculum)
+
+
+def vec_env_for(config: EnvConfig, workers: WorkerConfig, with_expert: bool = True,
+                curriculum: TerrainCurriculum | None = None) -> VecEnv:
+    """`make_vec_env` as a run's `WorkerConfig` says (count, environments each, backend, Ray address)."""
+    return make_vec_env(config, workers.workers, workers.envs_per_worker, with_expert, curriculum, workers.backend,
+                        workers.ray_address)

@@ -209,10 +209,9 @@ def _evaluation_reward(policy_path: Path, env: EnvConfig) -> float:
     return float(rollout.rewards.mean())
 
 
-def test_a_short_ppf_run_improves_the_reward_of_a_degraded_policy(tmp_path):
-    """PPF from the shipped policy with its left-knee output shifted (it limps): six iterations on a
-    fixed seed raise the deterministic policy's reward (the MAR-weighted pull toward the expert and
-    the task reward agree here)."""
+def degraded_ppf_run(tmp_path: Path) -> tuple[FinetuneConfig, Path, EnvConfig]:
+    """Six PPF iterations (in-process rollouts) from the shipped policy with its left-knee output shifted (it limps),
+    the degraded checkpoint, and the environment its reward is measured in."""
     from learn.checkpoints import save_torch
     from learn.config import CommandSampling
     from learn.finetune import DISTILLED
@@ -231,6 +230,13 @@ def test_a_short_ppf_run_improves_the_reward_of_a_degraded_policy(tmp_path):
     # little in six iterations to tell)
     config = dataclasses.replace(_short_run(tmp_path, "ppf", 6), init_policy=degraded, env=env, steps_per_env=100,
                                  ppo=PpoConfig(critic_warmup_iterations=1, learning_rate_bounds=(1e-5, 1e-3)))
+    return config, degraded, env
+
+
+def test_a_short_ppf_run_improves_the_reward_of_a_degraded_policy(tmp_path):
+    """Six iterations on a fixed seed raise the deterministic policy's reward (the MAR-weighted pull toward the
+    expert and the task reward agree here); tests/test_ray_backend.py runs the same through Ray actors."""
+    config, degraded, env = degraded_ppf_run(tmp_path)
     before = _evaluation_reward(degraded, env)
     after = _evaluation_reward(FinetuneRunner(config).learn(), env)
     assert after > before + 0.05, (before, after)

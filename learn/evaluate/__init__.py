@@ -46,8 +46,10 @@ def controller_labels(specs: Sequence[str]) -> dict[str, str]:
 
 
 def evaluate(controllers: Sequence[str], protocols: Sequence[str] = DEFAULT_PROTOCOLS, seeds: int = 5,
-             workers: int | None = None, shifts: Sequence[str] = ("nominal",), progress: bool = False) -> Results:
-    """Every (controller, protocol, seed, shift), in parallel over `workers` processes (default: every core).
+             workers: int | None = None, shifts: Sequence[str] = ("nominal",), progress: bool = False,
+             backend: str = "process", ray_address: str | None = None) -> Results:
+    """Every (controller, protocol, seed, shift), in parallel over `workers` processes (default: every core), or as
+    tasks of a Ray cluster (`backend="ray"`, `learn.ray_vec_env.connect`: one core each).
 
     The gait protocol measures each gait's distance from the MBC's on the same seed and shift (the MBC's
     gait is run for that when 'mbc' is not among the controllers)."""
@@ -65,7 +67,10 @@ def evaluate(controllers: Sequence[str], protocols: Sequence[str] = DEFAULT_PROT
             for seed in range(seeds)]
     reference = [Job("mbc", "gait", seed, shift) for shift in shifts for seed in range(seeds)
                  if "gait" in protocols and "mbc" not in controllers]
-    outcomes = _run(jobs + reference, workers or os.cpu_count() or 1, progress)
+    if backend not in ("process", "ray"):
+        raise ConfigError(f"unknown backend {backend!r}; valid: ['process', 'ray']")
+    run = _run_on_ray if backend == "ray" else _run
+    outcomes = run(jobs + reference, workers or os.cpu_count() or 1, progress, ray_address)
     errors = [(job, outcome["error"]) for job, outcome in zip(jobs + reference, outcomes) if "error" in outcome]
     if errors:
         warnings.warn(f"{len(errors)} of {len(outcomes)} jobs raised (counted as failures), e.g. {errors[0][0]}: "
@@ -86,7 +91,25 @@ def _features(data: dict) -> GaitFeatures:
     return GaitFeatures(**{**data, "joint_cycle": np.asarray(data["joint_cycle"], float)})
 
 
-def _run(jobs: list[Job], workers: int, progress: bool) -> list[dict]:
+def _run_on_ray(jobs: list[Job], workers: int, progress: bool, address: str | None) -> list[dict]:
+    """The jobs as Ray tasks of one core each, retried if their worker dies; results in the jobs' order."""
+    from learn.ray_vec_env import connect
+
+    connect(address, num_cpus=None if address else workers)
+    import ray
+
+    task = ray.remote(num_cpus=1, max_retries=3)(run_job)
+    pending = {task.remote(job): k for k, job in enumerate(jobs)}
+    outcomes: list[dict] = [{}] * len(jobs)
+    with tqdm(total=len(jobs), desc="evaluating (ray)", unit="episode set", disable=not progress) as bar:
+        while pending:
+            done, _ = ray.wait(list(pending), num_returns=1)
+            outcomes[pending.pop(done[0])] = ray.get(done[0])
+            bar.update()
+    return outcomes
+
+
+def _run(jobs: list[Job], workers: int, progress: bool, address: str | None = None) -> list[dict]:
     bar = tqdm(total=len(jobs), desc="evaluating", unit="episode set", disable=not progress)
     if workers > 1 and len(jobs) > 1:
         with multiprocessing.get_context("spawn").Pool(min(workers, len(jobs))) as pool:

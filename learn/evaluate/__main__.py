@@ -24,11 +24,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--workers", type=int, default=None, help="processes (default: every core)")
     parser.add_argument("--out", type=Path, default=None, help="directory for NAME.md, NAME.csv, results.json, *.png")
+    parser.add_argument("--backend", choices=["process", "ray"], default="process",
+                        help="worker processes on this machine, or tasks of a Ray cluster (default: process)")
+    parser.add_argument("--ray-address", default=None,
+                        help="the Ray cluster to join with --backend ray ('auto' on one of its nodes; docs/cluster.md)")
     args = parser.parse_args(argv)
     try:
         if args.out is not None:
             output_directory(args.out, "--out")  # before the work, not after it
-        results = evaluate(args.controllers, args.protocols, args.seeds, args.workers, args.shifts, progress=True)
+        results = evaluate(args.controllers, args.protocols, args.seeds, args.workers, args.shifts, progress=True,
+                           backend=args.backend, ray_address=args.ray_address)
     except ConfigError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
