@@ -11,6 +11,7 @@ method has; the full profile of one PPF update is printed by --profile.
 from __future__ import annotations
 
 import cProfile
+import dataclasses
 import pstats
 import time
 from dataclasses import dataclass
@@ -34,6 +35,8 @@ class Args:
     """torch intra-op threads to measure (0: torch's default for this machine)."""
     steps: int = 400
     envs: int = 16
+    lipschitz_samples: tuple[int, ...] = (0, 256)
+    """States per minibatch of the Lipschitz penalty's estimate to compare (0: the whole minibatch, as before)."""
     repeats: int = 3
     """Updates timed per case (after one warm-up); the median is printed."""
     profile: bool = False
@@ -55,9 +58,10 @@ def synthetic_rollout(steps: int, envs: int, seed: int = 0) -> Rollout:
         last_values=rng.normal(1, 0.1, envs).astype(f32))
 
 
-def time_update(method: str, rollout: Rollout, repeats: int) -> float:
+def time_update(method: str, rollout: Rollout, repeats: int, lipschitz_samples: int) -> float:
     model = ActorCritic(rollout.observations.shape[-1])
-    ppo = Ppo(model, PpoConfig(), method_regularizer(method, label_every=4))
+    regularizer = dataclasses.replace(method_regularizer(method, label_every=4), lipschitz_samples=lipschitz_samples or None)
+    ppo = Ppo(model, PpoConfig(), regularizer)
     ppo.update(rollout)
     times = []
     for _ in range(repeats):
@@ -71,12 +75,16 @@ def main(args: Args) -> None:
     rollout = synthetic_rollout(args.steps, args.envs)
     default_threads = torch.get_num_threads()
     print(f"one update of {rollout.samples:,} samples (5 epochs x 4 minibatches), median of {args.repeats} [s]")
-    print(f"{'method':>8} {'threads':>8} {'update [s]':>11} {'samples/s':>10}")
+    print(f"{'method':>8} {'threads':>8} {'Lipschitz on':>13} {'update [s]':>11} {'samples/s':>10} {'vs first':>9}")
     for threads in args.threads:
         torch.set_num_threads(threads or default_threads)
         for method in args.methods:
-            seconds = time_update(method, rollout, args.repeats)
-            print(f"{method:>8} {torch.get_num_threads():>8} {seconds:11.3f} {rollout.samples / seconds:10.0f}")
+            first = None
+            for samples in args.lipschitz_samples:
+                seconds = time_update(method, rollout, args.repeats, samples)
+                first = first or seconds
+                print(f"{method:>8} {torch.get_num_threads():>8} {samples or 'all':>13} {seconds:11.3f} "
+                      f"{rollout.samples / seconds:10.0f} {first / seconds:8.2f}x")
     if args.profile:
         torch.set_num_threads(default_threads)
         model = ActorCritic(rollout.observations.shape[-1])
