@@ -54,6 +54,8 @@ class Args:
     evaluation_seeds: int = 5
     """Seeds per protocol of the final comparison (0: skip it)."""
     seed: int = 0
+    device: str = "cpu"
+    """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
 
 
 def main(args: Args) -> None:
@@ -66,12 +68,13 @@ def main(args: Args) -> None:
     if args.stage == "all":
         distill_dir = args.run_dir / "distill"
         resume = args.resume and (distill_dir / "training_state.pt").exists()
-        init = DaggerRunner(DistillConfig(run_dir=distill_dir, seed=args.seed, resume=resume, workers=args.workers)).learn()
+        init = DaggerRunner(DistillConfig(run_dir=distill_dir, seed=args.seed, resume=resume, workers=args.workers,
+                                          device=args.device)).learn()
     iterations = args.iterations if args.iterations is not None else {"default": FinetuneConfig.iterations,
                                                                        "paper": 10_000}[args.preset]
     finetune_dir = args.run_dir / "finetune"
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init,
-                            iterations=iterations, workers=args.workers, label_every=args.label_every,
+                            iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
                             resume=args.resume and (finetune_dir / "training_state.pt").exists())
     if args.preset == "paper":  # 10,000 iterations of 40,000 steps: the paper's 400 M samples
         config = dataclasses.replace(config, steps_per_env=40_000 // args.workers.num_envs)

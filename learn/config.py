@@ -224,3 +224,5 @@ class DistillConfig:
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     dagger: DaggerConfig = field(default_factory=DaggerConfig)
     workers: WorkerConfig = field(default_factory=WorkerConfig)
+    device: str = "cpu"
+    """Where the fit runs: 'cpu', or 'cuda' when torch sees a GPU (the rollouts stay on the CPU workers)."""

@@ -41,8 +41,9 @@ def cosine_learning_rate(initial: float, final: float, progress: float) -> float
 class DaggerFit:
     """Fits the actor's mean to the expert's labels (the critic and the log-std are untouched)."""
 
-    def __init__(self, model: ActorCritic, learning_rate: float) -> None:
-        self.model = model
+    def __init__(self, model: ActorCritic, learning_rate: float, device: torch.device | str = "cpu") -> None:
+        self.device = torch.device(device)
+        self.model = model.to(self.device)
         self.optimizer = torch.optim.Adam(model.actor.parameters(), lr=learning_rate)
 
     def fit(self, observations: np.ndarray, actions: np.ndarray, steps: int, batch_size: int, learning_rate: float,
@@ -52,8 +53,8 @@ class DaggerFit:
         self.model.normalizer.set_statistics(observations)
         for group in self.optimizer.param_groups:
             group["lr"] = learning_rate
-        obs = torch.as_tensor(observations)
-        act = torch.as_tensor(actions)
+        obs = torch.as_tensor(observations).to(self.device)
+        act = torch.as_tensor(actions).to(self.device)
         generator = torch.Generator().manual_seed(seed)
         losses = []
         self.model.train()
@@ -72,4 +73,5 @@ class DaggerFit:
     def evaluate(self, observations: np.ndarray, actions: np.ndarray) -> float:
         """The loss on a whole dataset, without updating."""
         with torch.inference_mode():
-            return float(dagger_loss(self.model.action_mean(torch.as_tensor(observations)), torch.as_tensor(actions)))
+            return float(dagger_loss(self.model.action_mean(torch.as_tensor(observations).to(self.device)),
+                                     torch.as_tensor(actions).to(self.device)))

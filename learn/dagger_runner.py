@@ -25,7 +25,7 @@ from learn.console import append_scalars, iteration_line, number
 from learn.dagger import DaggerFit, cosine_learning_rate, usable_labels
 from learn.expert import teacher_command_limits
 from learn.observation import ObservationLayout
-from learn.policy import ActorCritic
+from learn.policy import ActorCritic, learner_device
 from learn.storage import LabelledDataset, output_directory
 from learn.vec_env import RolloutRequest, VecEnv, rollout_seed, vec_env_for
 from mbc.errors import ConfigError
@@ -48,7 +48,7 @@ class DaggerRunner:
         self.action_space = ActionSpace()
         self.turn_accel_mps2 = teacher_command_limits().turn_accel_mps2
         """The teacher's turning limit: a distilled policy learned only commands its teacher followed."""
-        self.fitter = DaggerFit(self.model, config.dagger.learning_rate)
+        self.fitter = DaggerFit(self.model, config.dagger.learning_rate, learner_device(config.device))
         self.dataset = LabelledDataset(self.run_dir / "data", config.dagger.max_dataset_samples)
         self.start_iteration, self.samples, self.wall_s = 0, 0, 0.0
         if state_path.exists():

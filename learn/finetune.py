@@ -26,7 +26,7 @@ from learn.config import EnvConfig, PolicyConfig, WorkerConfig, paper_randomizat
 from learn.console import append_scalars, iteration_line, number
 from learn.curriculum import TerrainCurriculum, VelocityCurriculum
 from learn.observation import ObservationLayout
-from learn.policy import ActorCritic, check_gains, load_checkpoint
+from learn.policy import ActorCritic, check_gains, learner_device, load_checkpoint
 from learn.ppo import METHODS, Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
 from learn.storage import output_directory
 from learn.vec_env import RolloutRequest, rollout_seed, vec_env_for
@@ -66,6 +66,8 @@ class FinetuneConfig:
     velocity: VelocityCurriculum = field(default_factory=VelocityCurriculum)
     policy: PolicyConfig = field(default_factory=PolicyConfig)
     workers: WorkerConfig = field(default_factory=WorkerConfig)
+    device: str = "cpu"
+    """Where the PPO update runs: 'cpu', or 'cuda' when torch sees a GPU (the rollouts stay on the CPU workers)."""
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -104,7 +106,7 @@ class FinetuneRunner:
             self._fresh_normalizer = False
         with torch.no_grad():
             self.model.log_std.fill_(cfg.init_log_std)
-        self.ppo = Ppo(self.model, cfg.ppo, cfg.regularizer(), seed=cfg.seed)
+        self.ppo = Ppo(self.model, cfg.ppo, cfg.regularizer(), seed=cfg.seed, device=learner_device(cfg.device))
         self.start_iteration, self.samples, self.wall_s = 0, 0, 0.0
         self.forward_max = cfg.velocity.start_mps
         if state_path.exists():

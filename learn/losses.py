@@ -77,6 +77,6 @@ def lipschitz_penalty(network, inputs: torch.Tensor, generator: torch.Generator 
         inputs = inputs[torch.randperm(len(inputs), generator=generator)[:samples]]
     inputs = inputs.detach().requires_grad_(True)
     outputs = network(inputs)
-    v = torch.randn(outputs.shape, generator=generator, dtype=outputs.dtype)
+    v = torch.randn(outputs.shape, generator=generator, dtype=outputs.dtype).to(outputs.device)  # CPU generator: any device
     (gradient,) = torch.autograd.grad(outputs, inputs, grad_outputs=v, create_graph=True)
     return gradient.square().sum(dim=-1).mean()

@@ -83,7 +83,8 @@ class ActorCritic(nn.Module):
     def checkpoint(self, **extra) -> dict:
         """A `torch.save`-able dict loadable with `weights_only=True`."""
         return {"format": CHECKPOINT_FORMAT, "observation_size": self.observation_size, "action_size": self.action_size,
-                "policy_config": dataclasses.asdict(self.config), "state_dict": self.state_dict(), **extra}
+                "policy_config": dataclasses.asdict(self.config),
+                "state_dict": {k: v.detach().cpu() for k, v in self.state_dict().items()}, **extra}
 
     @classmethod
     def from_checkpoint(cls, checkpoint: dict) -> ActorCritic:
@@ -113,6 +114,20 @@ def load_checkpoint(path: str | Path) -> dict:
         raise ConfigError(f"{path} is not a policy checkpoint of this project (expected format {CHECKPOINT_FORMAT!r}): "
                           f"{WHAT_A_CHECKPOINT_IS}")
     return checkpoint
+
+
+def learner_device(name: str) -> torch.device:
+    """The torch device the learner runs on ('cpu', 'cuda', 'cuda:1', ...), refused clearly where it does not exist.
+    Rollouts always run on the CPU workers; only the update (PPO) or the fit (DAgger) moves."""
+    try:
+        device = torch.device(name)
+    except RuntimeError as error:
+        raise ConfigError(f"unknown device {name!r}; valid: 'cpu', 'cuda', 'cuda:N'") from error
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise ConfigError(f"device {name!r}: torch sees no CUDA device on this machine; use 'cpu'")
+    if device.type not in ("cpu", "cuda"):
+        raise ConfigError(f"unsupported device {name!r}; valid: 'cpu', 'cuda', 'cuda:N'")
+    return device
 
 
 def check_gains(checkpoint: dict, kp: np.ndarray, kd: np.ndarray, where: str) -> None:

@@ -139,21 +139,24 @@ def flat(array: np.ndarray) -> torch.Tensor:
 class Ppo:
     """The update of the actor-critic from one batch of rollouts."""
 
-    def __init__(self, model: ActorCritic, config: PpoConfig, regularizer: RegularizerConfig, seed: int = 0) -> None:
-        self.model, self.config, self.regularizer = model, config, regularizer
+    def __init__(self, model: ActorCritic, config: PpoConfig, regularizer: RegularizerConfig, seed: int = 0,
+                 device: torch.device | str = "cpu") -> None:
+        self.device = torch.device(device)
+        self.model, self.config, self.regularizer = model.to(self.device), config, regularizer
         self.learning_rate = config.learning_rate
         actor = [*model.actor.parameters(), model.log_std]
         self.optimizer = torch.optim.Adam([{"params": actor, "lr": self.learning_rate},
                                            {"params": model.critic.parameters(), "lr": config.critic_learning_rate}])
         self._monitor_columns = [MONITOR_NAMES.index(m) for m in regularizer.monitors]
-        self._deltas = torch.tensor(regularizer.deltas)
+        self._deltas = torch.tensor(regularizer.deltas, device=self.device)
         self.generator = torch.Generator().manual_seed(seed)
 
     def regularization_weight(self, monitors: torch.Tensor) -> torch.Tensor:
         """w(s) of each sample from its monitors (N, len(MONITOR_NAMES))."""
         if self.regularizer.weighting == "mar":
             return mar_weight(monitors[:, self._monitor_columns], self._deltas, self.regularizer.w0)
-        return torch.full(monitors.shape[:1], self.regularizer.w0 if self.regularizer.weighting == "constant" else 0.0)
+        return torch.full(monitors.shape[:1], self.regularizer.w0 if self.regularizer.weighting == "constant" else 0.0,
+                          device=monitors.device)
 
     def update(self, rollout: Rollout, critic_only: bool = False) -> dict[str, float]:
         """Epochs of minibatch updates on `rollout`; returns the mean of each loss term and statistics."""
@@ -162,13 +165,15 @@ class Ppo:
         advantages, returns = generalized_advantages(
             rewards, torch.as_tensor(rollout.values), torch.as_tensor(rollout.terminated),
             torch.as_tensor(rollout.truncated), torch.as_tensor(rollout.last_values), cfg.gamma, cfg.lam)
-        obs, actions, old_log_probs = flat(rollout.observations), flat(rollout.actions), flat(rollout.log_probs)
-        old_values, returns, advantages = flat(rollout.values), returns.reshape(-1), advantages.reshape(-1)
+        to = self.device
+        obs, actions, old_log_probs = (flat(getattr(rollout, name)).to(to) for name in ("observations", "actions", "log_probs"))
+        old_values, returns, advantages = flat(rollout.values).to(to), returns.reshape(-1).to(to), advantages.reshape(-1).to(to)
         advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
         labelled = flat(rollout.label_valid)
         if self.regularizer.only_followed_commands:
             labelled = labelled & flat(rollout.label_followed)  # not in place: flat() shares the rollout's memory
-        expert_actions, weights = flat(rollout.expert_actions), self.regularization_weight(flat(rollout.monitors))
+        labelled = labelled.to(to)
+        expert_actions, weights = flat(rollout.expert_actions).to(to), self.regularization_weight(flat(rollout.monitors).to(to))
         old_mean = self.model.action_mean(obs).detach()
         old_std = self.model.log_std.exp().detach()
         sums: dict[str, float] = {}

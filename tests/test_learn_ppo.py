@@ -240,3 +240,18 @@ def test_a_short_ppf_run_improves_the_reward_of_a_degraded_policy(tmp_path):
     before = _evaluation_reward(degraded, env)
     after = _evaluation_reward(FinetuneRunner(config).learn(), env)
     assert after > before + 0.05, (before, after)
+
+
+def test_the_learner_device_is_chosen_clearly_and_checkpoints_stay_on_the_cpu(tmp_path):
+    from learn.policy import learner_device
+
+    assert learner_device("cpu") == torch.device("cpu")
+    with pytest.raises(ConfigError, match="unknown device 'gpu0'"):
+        learner_device("gpu0")
+    if not torch.cuda.is_available():
+        with pytest.raises(ConfigError, match="no CUDA device on this machine"):
+            FinetuneRunner(dataclasses.replace(_short_run(tmp_path, "ifm", 1), device="cuda"))
+    model = ActorCritic(10)
+    device = torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    Ppo(model, PpoConfig(), method_regularizer("ifm"), device=device)
+    assert {tensor.device.type for tensor in model.checkpoint()["state_dict"].values()} == {"cpu"}
