@@ -25,7 +25,8 @@ def test_learning_throughput_benchmarks_print_their_figures():
                           "--envs-per-worker", "2", "--steps", "10", "--label-every", "4"],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert ppo.returncode == 0, ppo.stderr
-    assert re.search(r"ppf / fullreg, 1/4\s+\d+\s+\d+%", ppo.stdout)
+    assert re.search(r"ppf / fullreg, 1/4\s+process\s+1\s+\d+\s+\d+\s+\d+%\s+\d+%", ppo.stdout)
+    assert re.search(r"ifm / purerl \(no expert\)\s+process\s+1\s+\d+\s+\d+\s+\d+%\s+0%", ppo.stdout)
 
 
 def test_closed_chain_benchmark_prints_its_tables():
