@@ -1,6 +1,8 @@
 """The walking task as a gymnasium environment: registered by `import learn`, gymnasium's own checker passes,
 the five-tuple and `info` as documented, seeded resets repeat, a loaded policy rolls it out, and the vector form."""
 
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -13,7 +15,7 @@ from learn.gym_env import ENV_ID, make_vector_env
 from learn.policy import PolicyController
 from mbc.errors import ConfigError
 
-SHIPPED = "policies/distilled.pt"
+SHIPPED = Path(__file__).resolve().parents[1] / "policies" / "distilled.pt"
 
 
 def test_gymnasiums_checker_passes_and_spaces_are_the_policys():
