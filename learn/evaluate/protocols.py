@@ -29,6 +29,7 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+import torch
 
 from learn.config import EnvConfig
 from learn.evaluate.gait import gait_features
@@ -98,12 +99,16 @@ def run_job(job: Job) -> dict:
     that raises is a failure with its 'error' (one episode's crash does not lose the others' results)."""
     kind, value = parse_protocol(job.protocol)
     shift = get_shift(job.shift)
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)  # a policy's one-state forward gains nothing from threads; jobs run in parallel
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # the controllers' caught solver warnings
         try:
             return _RUNNERS[kind](make_controller(job.controller), value, job.seed, shift)
         except Exception as error:  # reported with the results, not raised
             return {"success": False, "fell": False, "metric": math.nan, "error": f"{type(error).__name__}: {error}"}
+        finally:
+            torch.set_num_threads(threads)
 
 
 def _start(terrain: str, seed: int, shift: Shift, controller: Controller, **terrain_params):
