@@ -18,6 +18,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
+import numpy as np
 import tyro
 
 from learn.action import ActionSpace
@@ -38,6 +39,8 @@ class Args:
     label_every: tuple[int, ...] = (4,)
     """Label rates to measure for the regularized methods (the training's default: 4)."""
     backends: tuple[str, ...] = ("process",)
+    repeats: int = 3
+    """Rollouts timed per case (the median is printed; the update is timed on the last)."""
 
 
 def measure(workers: int, args: Args, backend: str, label_every: int) -> dict[str, float]:
@@ -48,10 +51,13 @@ def measure(workers: int, args: Args, backend: str, label_every: int) -> dict[st
     ppo = Ppo(model, PpoConfig(), method_regularizer("ppf" if label_every else "ifm", label_every))
     with make_vec_env(config, workers, args.envs_per_worker, with_expert=label_every > 0, backend=backend) as vec_env:
         vec_env.collect(RolloutRequest(policy, 20, seed=1, label_every=label_every, stochastic=True))
-        start = time.perf_counter()
-        rollout = vec_env.collect(RolloutRequest(policy, args.steps, seed=2, label_every=label_every, stochastic=True,
-                                                 continue_episodes=True))
-        collect_s = time.perf_counter() - start
+        times = []
+        for repeat in range(args.repeats):
+            start = time.perf_counter()
+            rollout = vec_env.collect(RolloutRequest(policy, args.steps, seed=2 + repeat, label_every=label_every,
+                                                     stochastic=True, continue_episodes=True))
+            times.append(time.perf_counter() - start)
+        collect_s = float(np.median(times))
     start = time.perf_counter()
     ppo.update(rollout)
     update_s = time.perf_counter() - start
@@ -61,7 +67,7 @@ def measure(workers: int, args: Args, backend: str, label_every: int) -> dict[st
 
 
 def main(args: Args) -> None:
-    print(f"{args.envs_per_worker} envs per worker, {args.steps} ticks each; steps/s")
+    print(f"{args.envs_per_worker} envs per worker, {args.steps} ticks each; steps/s (rollout: median of {args.repeats})")
     print(f"{'method':>24} {'backend':>8} {'workers':>7} {'rollout':>8} {'end-to-end':>10} {'update':>7} {'expert':>7}")
     methods = [("ifm / purerl (no expert)", 0)] + [(f"ppf / fullreg, 1/{k}", k) for k in args.label_every]
     for name, label_every in methods:

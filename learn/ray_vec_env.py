@@ -17,6 +17,7 @@ of its own), where a local cluster is started with its dashboard off.
 
 from __future__ import annotations
 
+import os
 import socket
 
 from learn.config import EnvConfig
@@ -31,7 +32,8 @@ def network_interfaces() -> list[str]:
 
 
 def connect(address: str | None, num_cpus: int | None = None) -> None:
-    """Join the Ray cluster at `address`, or start a local one where loopback is the only interface."""
+    """Join the Ray cluster at `address`, or start a local one (of this machine's cores, or `num_cpus` if more)
+    where loopback is the only interface."""
     try:
         import ray
     except ImportError as error:
@@ -45,10 +47,20 @@ def connect(address: str | None, num_cpus: int | None = None) -> None:
                 f"refusing to start a local Ray cluster on a machine with network interfaces {others}: Ray would "
                 "listen on them. Start a cluster of your own (`ray start --head ...`, docs/cluster.md) and pass its "
                 "address (--ray-address), or run inside a network namespace with only loopback (sudo unshare -n)")
-        ray.init(address="local", num_cpus=num_cpus, include_dashboard=False, _node_ip_address="127.0.0.1",
-                 log_to_driver=False, configure_logging=False)
+        ray.init(address="local", num_cpus=max(num_cpus or 0, os.cpu_count() or 1), include_dashboard=False,
+                 _node_ip_address="127.0.0.1", log_to_driver=False, configure_logging=False)
     else:
         ray.init(address=address, log_to_driver=False, configure_logging=False)
+
+
+def require_cpus(count: int) -> None:
+    """A `ConfigError` unless the cluster has `count` CPUs for actors of one CPU each (else they wait forever)."""
+    import ray
+
+    available = ray.cluster_resources().get("CPU", 0.0)
+    if available < count:
+        raise ConfigError(f"the Ray cluster has {available:g} CPUs, fewer than the {count} actors of one CPU asked "
+                          "for: lower --workers.workers or add nodes")
 
 
 class _GroupActor:
@@ -76,6 +88,7 @@ class RayVecEnv(VecEnv):
     def __init__(self, config: EnvConfig, workers: int, envs_per_worker: int, with_expert: bool = True,
                  curriculum: TerrainCurriculum | None = None, address: str | None = None) -> None:
         connect(address, num_cpus=None if address else workers)
+        require_cpus(workers)
         import ray
 
         self._ray = ray

@@ -22,7 +22,7 @@ def test_learning_throughput_benchmarks_print_their_figures():
     assert dagger.returncode == 0, dagger.stderr
     assert re.search(r"^\s+1\s+2\s+\d+\s+\d+\s+\d+%\s+\d+%\s+\d+%\s+-?\d+%$", dagger.stdout, re.MULTILINE)
     ppo = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_ppo_throughput.py"), "--workers", "1",
-                          "--envs-per-worker", "2", "--steps", "10", "--label-every", "4"],
+                          "--envs-per-worker", "2", "--steps", "10", "--label-every", "4", "--repeats", "1"],
                          capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert ppo.returncode == 0, ppo.stderr
     assert re.search(r"ppf / fullreg, 1/4\s+process\s+1\s+\d+\s+\d+\s+\d+%\s+\d+%", ppo.stdout)
