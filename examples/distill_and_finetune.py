@@ -2,7 +2,7 @@
 it with PPO under a regularizer (PPF by default), evaluate the MBC, the distilled and the fine-tuned
 policies on quick protocols, and export the result to ONNX.
 
-    python examples/distill_and_finetune.py                           # PPF from policies/distilled.pt (~15 min)
+    python examples/distill_and_finetune.py                           # PPF from policies/distilled.pt (~12 min on 2 cores)
     python examples/distill_and_finetune.py --method ifm --run-dir runs/ifm
     python examples/distill_and_finetune.py --stage all               # distill from nothing first
     python examples/distill_and_finetune.py --run-dir runs/ppf --resume
@@ -43,7 +43,7 @@ class Args:
     resume: bool = False
     """Continue a killed run in --run-dir (the stage in progress resumes from its checkpoint)."""
     preset: Literal["default", "paper"] = "default"
-    """'default': 150 iterations, about 15 minutes on 2 cores with the evaluation; 'paper': the paper's
+    """'default': 150 iterations, about 12 minutes on 2 cores with the evaluation; 'paper': the paper's
     10,000 PPO iterations of 40,000 steps (400 M samples: about 1,000 hours on 2 cores; resume it across
     sessions)."""
     iterations: int | None = None
