@@ -75,6 +75,10 @@ def identical_rollouts() -> dict:
     return {"differing_fields": differing, "samples": [r.samples for r in results["ray"]]}
 
 
+KILL_AFTER_S = 0.5
+"""Into a rollout of 2 x 400 ticks per actor (several seconds): the kill lands mid-rollout."""
+
+
 def killed_actor() -> dict:
     """SIGKILL one actor's process in the middle of a rollout: Ray restarts it, the rollout comes back whole."""
     from learn.action import ActionSpace
@@ -89,7 +93,7 @@ def killed_actor() -> dict:
     policy = deployable_checkpoint(ActorCritic(ObservationLayout(config.history_length).size), config, ActionSpace())
     with RayVecEnv(config, 2, 2, with_expert=False) as vec_env:
         before = vec_env.worker_pids()
-        killer = threading.Timer(1.0, os.kill, (before[0], signal.SIGKILL))
+        killer = threading.Timer(KILL_AFTER_S, os.kill, (before[0], signal.SIGKILL))
         killer.start()
         start = time.perf_counter()
         rollout = vec_env.collect(RolloutRequest(policy, 400, seed=5, stochastic=True, label_every=0))
@@ -99,7 +103,7 @@ def killed_actor() -> dict:
         again = vec_env.collect(RolloutRequest(policy, 20, seed=6, stochastic=True, label_every=0, continue_episodes=True))
     return {"killed_pid": before[0], "pids_before": before, "pids_after": after, "samples": rollout.samples,
             "expected_samples": 2 * 2 * 400, "finite": bool(np.isfinite(rollout.observations).all()),
-            "next_samples": again.samples, "collect_wall_s": wall}
+            "next_samples": again.samples, "collect_wall_s": wall, "killed_during_collect": wall > KILL_AFTER_S}
 
 
 def short_finetuning(work_dir: Path) -> dict:

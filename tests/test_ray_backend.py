@@ -47,6 +47,7 @@ def test_the_ray_backend_gives_the_process_backends_rollouts(scenarios):
 @needs_namespace
 def test_a_killed_actor_is_replaced_and_its_rollout_collected_again(scenarios):
     killed = scenarios["killed"]
+    assert killed["killed_during_collect"]  # the kill landed while its rollout was running
     assert killed["samples"] == killed["expected_samples"] and killed["finite"]
     assert killed["killed_pid"] not in killed["pids_after"]  # a new process took its place
     assert killed["pids_before"][1] == killed["pids_after"][1]  # the other actor was not touched
