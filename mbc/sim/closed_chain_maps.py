@@ -9,11 +9,11 @@ pelvis. Matching joint by joint instead would put the controller's feet centimet
 ones: the closed chain's hip-to-ankle distance changes with its knee, the open chain's thigh is rigid.
 
 * state map, closed -> open: foot pose relative to the pelvis -> open-chain leg IK (6 joints, 6D);
-  rates: the closed foot's twist relative to the pelvis through the open chain's leg Jacobian;
-* command map, open -> motors: open-chain forward kinematics of `q_des` -> the loop's inverse
-  kinematics (motors and passive joints, springs at rest, constraints closed) -> motor targets;
+* pose map, open -> closed: open-chain forward kinematics of joint positions -> the loop's inverse
+  kinematics (motors and passive joints, springs at rest, constraints closed): where `set_state` puts
+  the closed chain (commands are torques, `mbc.sim.closed_chain_sim`, not poses);
 * motor Jacobian M = d q_open / d q_motor (6 x 6 per leg) with the loops closed and springs rigid:
-  rates map as qd_motor = M^-1 qd_open, torques as tau_motor = M^T tau_open (virtual work), and
+  rates map as qd_open = M qd_motor, torques as tau_motor = M^T tau_open (virtual work), and
   joint stiffness K_open as K_motor = M^T K_open M.
 
 All solves are Gauss-Newton with minimum-norm steps (a rod's spin about its own axis is free),
