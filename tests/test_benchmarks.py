@@ -29,6 +29,15 @@ def test_learning_throughput_benchmarks_print_their_figures():
     assert re.search(r"ifm / purerl \(no expert\)\s+process\s+1\s+\d+\s+\d+\s+\d+%\s+0%", ppo.stdout)
 
 
+def test_learner_benchmark_prints_its_update_times():
+    result = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_ppo_update.py"), "--steps", "20", "--envs", "4",
+                             "--repeats", "1", "--methods", "ppf", "--threads", "1"],
+                            capture_output=True, text=True, timeout=300, cwd=ROOT)
+    assert result.returncode == 0, result.stderr
+    assert re.search(r"^\s+ppf\s+1\s+all\s+[\d.]+\s+\d+\s+1\.00x$", result.stdout, re.MULTILINE)
+    assert re.search(r"^\s+ppf\s+1\s+256\s+[\d.]+\s+\d+\s+[\d.]+x$", result.stdout, re.MULTILINE)
+
+
 def test_closed_chain_benchmark_prints_its_tables():
     result = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_closed_chain.py"), "--seeds", "1",
                              "--duration", "1.0", "--workers", "2"], capture_output=True, text=True, timeout=600, cwd=ROOT)
