@@ -77,8 +77,6 @@ class _GroupActor:
         return self.group.run(request)
 
     def pid(self) -> int:
-        import os
-
         return os.getpid()
 
 

@@ -55,6 +55,11 @@ def test_a_killed_actor_is_replaced_and_its_rollout_collected_again(scenarios):
 
 
 @needs_namespace
+def test_the_evaluation_runs_its_jobs_as_ray_tasks(scenarios):
+    assert scenarios["evaluation"] == {"successes": [True, True], "errors": [None, None]}
+
+
+@needs_namespace
 def test_every_socket_of_the_cluster_is_on_loopback(scenarios):
     assert scenarios["interfaces"] == ["lo"]
     addresses = {address for pair in scenarios["sockets"] for address in pair}

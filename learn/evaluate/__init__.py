@@ -69,8 +69,9 @@ def evaluate(controllers: Sequence[str], protocols: Sequence[str] = DEFAULT_PROT
                  if "gait" in protocols and "mbc" not in controllers]
     if backend not in ("process", "ray"):
         raise ConfigError(f"unknown backend {backend!r}; valid: ['process', 'ray']")
-    run = _run_on_ray if backend == "ray" else _run
-    outcomes = run(jobs + reference, workers or os.cpu_count() or 1, progress, ray_address)
+    processes = workers or os.cpu_count() or 1
+    outcomes = (_run_on_ray(jobs + reference, processes, progress, ray_address) if backend == "ray"
+                else _run(jobs + reference, processes, progress))
     errors = [(job, outcome["error"]) for job, outcome in zip(jobs + reference, outcomes) if "error" in outcome]
     if errors:
         warnings.warn(f"{len(errors)} of {len(outcomes)} jobs raised (counted as failures), e.g. {errors[0][0]}: "
@@ -109,7 +110,7 @@ def _run_on_ray(jobs: list[Job], workers: int, progress: bool, address: str | No
     return outcomes
 
 
-def _run(jobs: list[Job], workers: int, progress: bool, address: str | None = None) -> list[dict]:
+def _run(jobs: list[Job], workers: int, progress: bool) -> list[dict]:
     bar = tqdm(total=len(jobs), desc="evaluating", unit="episode set", disable=not progress)
     if workers > 1 and len(jobs) > 1:
         with multiprocessing.get_context("spawn").Pool(min(workers, len(jobs))) as pool:
