@@ -32,6 +32,8 @@ from learn.policy import ActorCritic
 from mbc.errors import ConfigError
 
 TIMING_PARTS = ("expert", "physics", "policy", "total")
+CURRICULUM_STREAM = 7_919
+"""Tells the terrain levels' random stream (rollout seed, environment index, this) from the episodes' streams."""
 
 
 def rollout_seed(seed: int, iteration: int) -> int:
@@ -121,14 +123,19 @@ class EnvGroup:
         self.curriculum = curriculum
         self.levels = [0] * len(indices)
         self._rngs: list[np.random.Generator] | None = None
+        self._level_rngs: list[np.random.Generator] = []
         self._ticks = [0] * len(indices)
         torch.set_num_threads(1)  # parallelism comes from the workers
-        if curriculum is not None:
-            for k, env in enumerate(self.envs):
-                env.set_terrain(curriculum.spec(self._kind(k), 0))
 
     def _kind(self, k: int) -> str:
         return self.curriculum.kinds[self.indices[k] % len(self.curriculum.kinds)]
+
+    def _start_curriculum(self, seed: int) -> None:
+        """Each environment's first level and terrain, drawn from the rollout's seed and the environment's index."""
+        self._level_rngs = [np.random.default_rng([seed, index, CURRICULUM_STREAM]) for index in self.indices]
+        for k, (env, rng) in enumerate(zip(self.envs, self._level_rngs)):
+            self.levels[k] = self.curriculum.initial_level(rng)
+            env.set_terrain(self.curriculum.spec(self._kind(k), self.levels[k]))
 
     def _start(self, k: int) -> None:
         self.envs[k].reset(int(self._rngs[k].integers(2**31)))
@@ -139,7 +146,8 @@ class EnvGroup:
         record = {"return": episode_return, "length_s": env.episode_time_s, "distance_m": distance, "fell": fell,
                   "terrain": env.terrain, "level": self.levels[k]}
         if self.curriculum is not None:
-            self.levels[k] = self.curriculum.next_level(self.levels[k], distance, fell)
+            record["kind"] = self._kind(k)
+            self.levels[k] = self.curriculum.next_level(self.levels[k], distance, fell, self._level_rngs[k])
             env.set_terrain(self.curriculum.spec(self._kind(k), self.levels[k]))
         self._start(k)
         return record
@@ -160,6 +168,8 @@ class EnvGroup:
         if not (request.continue_episodes and self._rngs is not None):
             self._rngs = [np.random.default_rng([request.seed, index]) for index in self.indices]
             self._returns = [0.0] * n
+            if self.curriculum is not None:
+                self._start_curriculum(request.seed)
             for k in range(n):
                 self._start(k)
         generator = torch.Generator().manual_seed(int(self._rngs[0].integers(2**31)))

@@ -1,0 +1,49 @@
+"""The terrain curriculum: starting levels, promotion, demotion, the last level's recycling, and the levels an
+`EnvGroup` builds its terrains from."""
+
+import numpy as np
+import pytest
+
+from learn.config import EnvConfig, PushSampling
+from learn.curriculum import TerrainCurriculum
+from learn.vec_env import InProcessVecEnv, RolloutRequest
+from mbc.errors import ConfigError
+
+
+def test_initial_levels_cover_zero_to_the_initial_maximum():
+    curriculum = TerrainCurriculum(levels=10, initial_max_level=5)
+    rng = np.random.default_rng(0)
+    levels = [curriculum.initial_level(rng) for _ in range(600)]
+    assert set(levels) == set(range(6))
+
+
+def test_promotion_demotion_and_the_last_level_sent_to_a_random_one():
+    curriculum = TerrainCurriculum(levels=4, promote_m=4.0, demote_m=1.5, initial_max_level=1)
+    rng = np.random.default_rng(0)
+    assert curriculum.next_level(1, 4.0, fell=False, rng=rng) == 2
+    assert curriculum.next_level(1, 3.9, fell=False, rng=rng) == 1
+    assert curriculum.next_level(1, 1.4, fell=True, rng=rng) == 0
+    assert curriculum.next_level(0, 1.4, fell=True, rng=rng) == 0
+    assert curriculum.next_level(2, 2.0, fell=True, rng=rng) == 2  # fell after walking beyond demote_m: kept
+    after_last = {curriculum.next_level(3, 5.0, fell=False, rng=rng) for _ in range(200)}
+    assert after_last == {0, 1, 2, 3}
+
+
+def test_bad_initial_level_refused():
+    with pytest.raises(ConfigError, match="initial_max_level"):
+        TerrainCurriculum(levels=4, initial_max_level=4)
+
+
+def test_env_group_starts_its_terrains_at_the_drawn_levels_per_seed():
+    config = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0))
+    curriculum = TerrainCurriculum(kinds=("uphill",), levels=10, initial_max_level=9)
+    vec_env = InProcessVecEnv(config, 4, curriculum=curriculum)
+    drawn = []
+    for seed in (0, 1):
+        vec_env.collect(RolloutRequest(None, steps=1, seed=seed, label_every=1, beta=1.0))
+        group = vec_env.group
+        assert [env.terrain for env in group.envs] == [curriculum.spec("uphill", level) for level in group.levels]
+        drawn.append(list(group.levels))
+    vec_env.collect(RolloutRequest(None, steps=1, seed=0, label_every=1, beta=1.0))
+    assert vec_env.group.levels == drawn[0]  # the same seed starts the same levels
+    assert drawn[0] != drawn[1]
