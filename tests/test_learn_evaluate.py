@@ -193,18 +193,20 @@ def test_unknown_protocols_shifts_and_non_policies_are_refused_with_the_valid_ch
 
 
 def test_every_protocol_runs_on_the_mbc_and_writes_its_tables_and_figures(tmp_path):
-    protocols = ("flat", "course_slope_1", "course_uneven_1", "uphill_8", "downhill_5", "uneven_2",
-                 "random_velocity_1", "max_velocity", "mar", "gait")
+    protocols = ("flat", "course_slope_1", "course_uneven_1", "uphill_8", "downhill_5", "uneven_2", "step_slip_100",
+                 "step_slip_15", "sand", "random_velocity_1", "max_velocity", "mar", "gait")
     results = evaluate(["mbc"], protocols, seeds=1, workers=2)
     assert [r["error"] for r in results.raw if "error" in r] == []  # a raising job would count as a mere failure
     rows = {row["protocol"]: row for row in results.rows}
     assert set(rows) == set(protocols)
-    for easy in ("flat", "uphill_8", "downhill_5", "uneven_2", "gait"):
+    for easy in ("flat", "uphill_8", "downhill_5", "uneven_2", "step_slip_100", "sand", "gait"):
         assert rows[easy]["successes"] == 1, easy  # where the MBC walks (its benchmark's cases)
     for course in ("course_slope_1", "course_uneven_1"):  # one level at the course's hardest (20 deg, 6 cm)
         run = next(r for r in results.raw if r["protocol"] == course)
         assert run["metric"] in (0.0, 1.0) and run["x_reached_m"] > 2.0  # walked from the run-up into the level
         assert (run["metric"] == 1.0) == (run["x_reached_m"] >= 2.0 + run["level_length_m"])
+    assert rows["step_slip_100"]["metric"] < 0.2 < 1.0 < rows["step_slip_15"]["metric"]  # the feet slide on 0.15
+    assert rows["sand"]["metric"] > 4.0  # 0.4 m/s for 20 s, slowed by the sinking feet
     assert 0.85 < rows["max_velocity"]["metric"] < 1.15  # the MBC follows forward commands up to 1.0 m/s
     assert rows["mar"]["flat_holds"] > 0.9  # z' stays small on flat ground...
     assert rows["mar"]["uphill_violated"] > rows["mar"]["flat_violated"]  # ...and grows on the incline

@@ -202,3 +202,40 @@ def test_joint_friction_scale_applies_and_is_checked():
     np.testing.assert_allclose(sim.model.dof_frictionloss, 2.5 * nominal)
     with pytest.raises(ConfigError, match="joint_friction_scale"):
         DomainParams(joint_friction_scale=-1.0)
+
+
+def _stance_sole_height(terrain: str, **params) -> float:
+    """The lower sole's height after 1.5 s of the MBC stepping in place (one foot is always down) [m]."""
+    from mbc import AlipController
+    from mbc.rollout import run_episode
+    from mbc.types import Command
+
+    sim = DigitSim(terrain, seed=0, **params)
+    run_episode(sim, AlipController.for_digit(), Command(0.0), 1.5, state=sim.reset())
+    return min(sim.sole_position(foot)[2] for foot in (0, 1))
+
+
+def test_soft_ground_yields_a_few_centimetres_where_flat_ground_does_not():
+    flat, soft = _stance_sole_height("flat"), _stance_sole_height("soft")
+    assert abs(flat) < 0.005
+    assert -0.08 < soft < -0.01
+    assert _stance_sole_height("soft", timeconst_s=0.02) > soft  # stiffer: less sink
+
+
+def test_the_board_is_a_step_up_whose_contacts_have_its_own_friction():
+    sim = DigitSim("board", seed=0, friction=0.15, height_m=0.02, run_up_m=1.0, length_m=1.0)
+    board = sim.model.geom("board").id
+    sim.set_domain(DomainParams(friction=0.8))  # randomization scales the board's friction as the rest
+    assert sim.model.geom_friction[board, 0] == pytest.approx(0.12)
+    sim.set_domain(DomainParams())
+    state = sim.reset()
+    assert sim.terrain_height(1.5, 0.0) == pytest.approx(0.02) and sim.terrain_height(0.5, 0.0) == pytest.approx(0.0)
+    state.base_pos = state.base_pos + np.array([1.5, 0.0, 0.03])  # stand on the board
+    sim.set_state(state)
+    hold = JointCommand.hold(digit.Q_STAND)
+    for _ in range(20):
+        sim.step(hold)
+    on_board = [i for i in range(sim.data.ncon) if board in sim.data.contact.geom[i]]
+    assert on_board and all(sim.data.contact.friction[i][0] == pytest.approx(0.15) for i in on_board)
+    with pytest.raises(ConfigError, match="board friction"):
+        DigitSim("board", friction=0.0)

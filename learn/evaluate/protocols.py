@@ -11,6 +11,11 @@ Protocol names (parametric ones take a number after the last underscore); what r
 * `uphill_A`, `downhill_A`: 0.5 m/s up (down) a 5 m incline of A deg; its end reached without a fall;
   the speed error on the incline [% of 0.5 m/s].
 * `uneven_C`: 0.4 m/s for 20 s over bumps of C cm; no fall; distance [m].
+* `step_slip_F`: the paper's step-and-slip hardware test: 0.3 m/s with heading hold onto and across a 2 cm board
+  of friction F / 100 (`step_slip_15`: 0.15, a whiteboard with poppy seeds or oil) 1.5 m ahead, 1.5 m long;
+  its far end passed without a fall within 20 s; how far the feet slid on the board [m].
+* `sand`: 0.4 m/s for 20 s on yielding ground (`mbc.sim.terrain.Soft`: the feet sink about 3 cm); no fall;
+  distance [m].
 * `random_velocity[_N]`: N trajectories per seed (default 20: the paper's 100 over 5 seeds) of four random
   5 s commands from ranges wider than training's; no fall; the return of the tracking rewards (46 is perfect).
 * `max_velocity`: the forward command ramped 0.5 -> 1.6 m/s over 25 s; the highest speed held 2 s within
@@ -42,15 +47,16 @@ from mbc.rollout import TRACKING_WINDOW_S, CommandSchedule, Episode, perturbed_s
 from mbc.sim import DigitSim
 from mbc.types import Command, Controller, JointCommand, RobotState
 
-FIXED = ("flat", "max_velocity", "mar", "gait")
-PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uneven": "C cm", "course_slope": "L levels",
+FIXED = ("flat", "max_velocity", "mar", "gait", "sand")
+PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uneven": "C cm", "step_slip": "F friction / 100", "course_slope": "L levels",
               "course_uneven": "L levels", "course_mixed": "L levels", "course": "L levels",
               "random_velocity": "N trajectories"}
 OPTIONAL_NUMBER = ("course_slope", "course_uneven", "course_mixed", "course", "random_velocity")
 DEFAULT_PROTOCOLS = ("flat", "course_slope", "course_uneven", "uphill_10", "uphill_12", "uphill_14", "uphill_16",
                      "uphill_18", "uphill_20", "uphill_22", "downhill_8", "downhill_10", "downhill_12", "downhill_14",
-                     "uneven_4", "random_velocity", "max_velocity", "mar", "gait")
+                     "uneven_4", "step_slip_15", "sand", "random_velocity", "max_velocity", "mar", "gait")
 RUN_UP_M, INCLINE_M = 1.5, 5.0
+BOARD_HEIGHT_M, BOARD_LENGTH_M, STEP_SLIP_SPEED_MPS = 0.02, 1.5, 0.3
 COURSE_LEVELS, COURSE_S_PER_LEVEL, COURSE_SPEED_MPS = 8, 130.0 / 8, 0.6
 COURSE_MAX = {"slope": {"max_slope_deg": 20.0}, "uneven": {"max_amplitude": 0.06},
               "mixed": {"max_slope_deg": 20.0, "max_amplitude": 0.06, "max_step_height": 0.1}}
@@ -189,6 +195,26 @@ def _uneven(controller, centimetres, seed, shift) -> dict:
     return {"success": not episode.fell, "fell": episode.fell, "metric": float(episode.base_pos[-1][0])}
 
 
+def _step_slip(controller, hundredths, seed, shift) -> dict:
+    friction = hundredths / 100
+    if friction <= 0:
+        raise ConfigError(f"step_slip needs a positive friction (in hundredths), got {hundredths}")
+    sim, shifted, state = _start("board", seed, shift, controller, friction=friction, height_m=BOARD_HEIGHT_M,
+                                 run_up_m=RUN_UP_M, length_m=BOARD_LENGTH_M)
+    end = RUN_UP_M + BOARD_LENGTH_M
+    recorder = SlipRecorder(sim, RUN_UP_M, end)
+    episode = run_episode(sim, HeadingHold(shifted, stop_beyond_x_m=end + 0.5), Command(STEP_SLIP_SPEED_MPS), 20.0,
+                          state=state, on_tick=recorder)
+    crossed = bool(episode.arrays("base_pos")[:, 0].max() > end)
+    return {"success": crossed and not episode.fell, "fell": episode.fell, "metric": recorder.slip_m}
+
+
+def _sand(controller, _, seed, shift) -> dict:
+    sim, shifted, state = _start("soft", seed, shift, controller)
+    episode = run_episode(sim, shifted, Command(0.4), 20.0, state=state)
+    return {"success": not episode.fell, "fell": episode.fell, "metric": float(episode.base_pos[-1][0])}
+
+
 def random_commands(rng: np.random.Generator, count: int = 4, duration_s: float = RANDOM_COMMAND_S) -> CommandSchedule:
     """`count` commands uniform in `RANDOM_COMMANDS`, each for `duration_s`, as a schedule."""
     ranges = RANDOM_COMMANDS.values()
@@ -213,6 +239,25 @@ def _max_velocity(controller, _, seed, shift) -> dict:
     ramp = lambda t: Command(min(0.5 + 1.1 * t / 25.0, 1.6))  # noqa: E731
     episode = run_episode(sim, shifted, ramp, 27.0, state=state)
     return {"success": True, "fell": episode.fell, "metric": sustained_velocity(episode)}
+
+
+class SlipRecorder:
+    """`run_episode`'s on_tick: how far the soles slid on the board: the summed horizontal displacement of each
+    sole over the ticks it was in contact at both ends, its centre on the board (x in [start, end]) [m]."""
+
+    def __init__(self, sim: DigitSim, start_x_m: float, end_x_m: float) -> None:
+        self.sim, self.start, self.end = sim, start_x_m, end_x_m
+        self.slip_m = 0.0
+        self._soles, self._contact = None, np.zeros(2, bool)
+
+    def __call__(self, state: RobotState, _command: JointCommand) -> None:
+        soles = np.stack([self.sim.sole_position(foot) for foot in (0, 1)])
+        if self._soles is not None:
+            for foot in (0, 1):
+                on_board = self.start <= soles[foot, 0] <= self.end
+                if on_board and state.contact[foot] and self._contact[foot]:
+                    self.slip_m += float(np.linalg.norm(soles[foot, :2] - self._soles[foot, :2]))
+        self._soles, self._contact = soles, state.contact.copy()
 
 
 class TickRecorder:
@@ -276,4 +321,4 @@ def _gait(controller, _, seed, shift) -> dict:
 _RUNNERS = {"flat": _flat, "course_slope": _course("slope"), "course_uneven": _course("uneven"),
             "course_mixed": _course("mixed"), "course": _course("mixed"), "uphill": _incline(1),
             "downhill": _incline(-1), "uneven": _uneven, "random_velocity": _random_velocity,
-            "max_velocity": _max_velocity, "mar": _mar, "gait": _gait}
+            "max_velocity": _max_velocity, "mar": _mar, "gait": _gait, "step_slip": _step_slip, "sand": _sand}

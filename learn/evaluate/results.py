@@ -20,6 +20,8 @@ FIGURES: dict[str, list[tuple[str, str]]] = {
     "course": [("levels passed", "metric"), ("time to the end [s]", "time_to_end_s")],
     "incline": [("speed error [% of 0.5 m/s]", "metric")],
     "uneven": [("distance [m]", "metric")],
+    "step_slip": [("slid on the board [m]", "metric")],
+    "sand": [("distance [m]", "metric")],
     "random_velocity": [("tracking return (46 = perfect)", "metric"), ("trajectories fallen", "fall_share")],
     "max_velocity": [("highest speed held [m/s]", "metric")],
     "mar": [("flat: w < 0.2 w0", "flat_violated"), ("flat: w > 0.8 w0", "flat_holds"),

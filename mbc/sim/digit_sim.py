@@ -266,7 +266,7 @@ class DigitSim:
         m.body_ipos[:] = nominal["body_ipos"]
         m.body_ipos[self._pelvis] += params.com_offset_m
         m.geom_friction[:] = nominal["geom_friction"]
-        m.geom_friction[:, 0] = params.friction
+        m.geom_friction[:, 0] *= params.friction  # the feet and ground are 1.0: a low-friction board stays lower
         m.dof_frictionloss[:] = nominal["dof_frictionloss"] * params.joint_friction_scale
         self._strength = np.broadcast_to(np.asarray(params.motor_strength, dtype=float), (digit.NUM_JOINTS,)).copy()
         delay = int(round(params.delay_s / self.config.timestep_s))

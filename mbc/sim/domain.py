@@ -15,7 +15,8 @@ class DomainParams:
     """Physical parameters of one simulated robot; the defaults are the nominal model."""
 
     friction: float = 1.0
-    """Sliding friction coefficient of feet and terrain."""
+    """Scale of every geom's sliding friction coefficient: the friction of feet and ground (1.0 nominal), and a
+    terrain's slippery parts (a `board`) scaled alike."""
     mass_scale: np.ndarray | float = 1.0
     """Scale of every link mass and inertia: a scalar or one per body (incl. world) of the model."""
     motor_strength: np.ndarray | float = 1.0

@@ -6,6 +6,10 @@
 * `uneven`: a heightfield with heights in [-amplitude, amplitude], smooth at `wavelength_m`,
   flat near the start.
 * `stairs`: `num_steps` steps of `step_height` up, a landing, and as many down.
+* `board`: flat ground and a low-friction board across the path, `height_m` thick (a step up and down):
+  the paper's step-and-slip hardware test (a whiteboard strewn with poppy seeds or oil).
+* `soft`: yielding ground (sand): a plane whose contacts are soft (MuJoCo's solref and solimp), so the
+  feet sink into it under load.
 * `course`: `num_levels` levels of increasing difficulty d = k / num_levels along +x: the robustness
   course. Each level of the `mixed` kind is an uneven patch (d * max_amplitude), a slope up and down
   (d * max_slope_deg) and three steps up and down (d * max_step_height); the `slope` and `uneven`
@@ -101,6 +105,46 @@ class Stairs:
         _require(self.run_up_m >= START_CLEARANCE_M, f"stairs run_up_m must be >= {START_CLEARANCE_M}")
 
 
+@dataclass(frozen=True)
+class Board:
+    """Flat ground with a slippery board to step onto and walk across."""
+
+    friction: float = 0.15
+    """Sliding friction of the board against the feet (dry whiteboard about 0.3; with seeds or oil 0.1-0.2)."""
+    height_m: float = 0.02
+    """Thickness of the board: the step up onto it [m]."""
+    run_up_m: float = 1.5
+    """Flat distance from the origin to the board's near edge [m]."""
+    length_m: float = 1.5
+    """Length of the board along +x [m]."""
+    width_m: float = 1.2
+    """Width of the board, centred on the path [m]."""
+
+    def __post_init__(self) -> None:
+        _require(0 < self.friction <= 2.0, f"board friction must be in (0, 2], got {self.friction}")
+        _require(0 < self.height_m <= MAX_STEP_HEIGHT_M, f"board height_m must be in (0, {MAX_STEP_HEIGHT_M}] m")
+        _require(self.run_up_m >= START_CLEARANCE_M, f"board run_up_m must be >= {START_CLEARANCE_M}, got {self.run_up_m}")
+        _require(self.length_m > 0 and self.width_m > 0, "board length_m and width_m must be positive")
+
+
+@dataclass(frozen=True)
+class Soft:
+    """Yielding ground: its contacts follow MuJoCo's soft-constraint model with a slow time constant and a
+    wide impedance ramp, so that a loaded foot sinks about 3 cm (`tests/test_sim.py` measures it)."""
+
+    timeconst_s: float = 0.05
+    """solref time constant of the ground's contacts (MuJoCo's default 0.02: stiff) [s]."""
+    dampratio: float = 1.0
+    """solref damping ratio."""
+    width_m: float = 0.04
+    """solimp width: the penetration over which the impedance rises from 0.1 to 0.9 [m]."""
+
+    def __post_init__(self) -> None:
+        _require(0.004 <= self.timeconst_s <= 1.0, f"soft timeconst_s must be in [0.004, 1] s, got {self.timeconst_s}")
+        _require(self.dampratio > 0, f"soft dampratio must be positive, got {self.dampratio}")
+        _require(0 < self.width_m <= 0.2, f"soft width_m must be in (0, 0.2] m, got {self.width_m}")
+
+
 COURSE_KINDS = ("mixed", "slope", "uneven")
 _PATCH_M, _SLOPE_M, _FLAT_M = 3.0, 2.5, 1.0
 _PATCH_HALF_WIDTH_M = 10.0
@@ -150,8 +194,9 @@ class Course:
         return self.run_up_m + self.level_length_m * np.arange(self.num_levels + 1)
 
 
-TERRAINS: dict[str, type] = {"flat": Flat, "slope": Slope, "uneven": Uneven, "stairs": Stairs, "course": Course}
-TerrainConfig = Flat | Slope | Uneven | Stairs | Course
+TERRAINS: dict[str, type] = {"flat": Flat, "slope": Slope, "uneven": Uneven, "stairs": Stairs, "board": Board,
+                             "soft": Soft, "course": Course}
+TerrainConfig = Flat | Slope | Uneven | Stairs | Board | Soft | Course
 
 
 def make_terrain(name: str, **params) -> TerrainConfig:
@@ -187,6 +232,22 @@ def add_terrain(spec: mujoco.MjSpec, terrain: TerrainConfig, rng: np.random.Gene
         _stairs(points, terrain.run_up_m, terrain.step_height, terrain.step_depth, terrain.num_steps, terrain.landing_m)
         points.append((_X_FRONT_M, points[-1][1]))
         _add_profile(spec, points)
+    elif isinstance(terrain, Board):
+        _ground(spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05]))
+        board = spec.worldbody.add_geom(
+            name="board", type=mujoco.mjtGeom.mjGEOM_BOX, pos=[terrain.run_up_m + terrain.length_m / 2, 0.0, terrain.height_m / 2],
+            size=[terrain.length_m / 2, terrain.width_m / 2, terrain.height_m / 2])
+        _ground(board)
+        board.friction = (terrain.friction, *CONTACT_FRICTION[1:])
+        board.priority = 1  # its friction, not the max of the pair (the feet's 1.0), governs its contacts
+        board.rgba = (0.92, 0.92, 0.95, 1.0)
+    elif isinstance(terrain, Soft):
+        ground = spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05])
+        _ground(ground)
+        ground.solref = (terrain.timeconst_s, terrain.dampratio)
+        ground.solimp = (0.1, 0.9, terrain.width_m, 0.5, 2.0)
+        ground.priority = 1  # its solref and solimp, not a mix with the feet's, govern its contacts
+        ground.rgba = (0.85, 0.75, 0.5, 1.0)
     elif isinstance(terrain, Course):
         _add_course(spec, terrain, rng)
     else:
