@@ -178,3 +178,20 @@ class AlipModel:
     def orbital_energy(self, x, L) -> np.ndarray:
         """(L / (m z))^2 / 2 - w^2 x^2 / 2, conserved along the flow without ankle torque."""
         return 0.5 * (np.asarray(L) / self.mz) ** 2 - 0.5 * self.omega**2 * np.asarray(x) ** 2
+
+
+class GaitEndMomenta:
+    """Step-end momentum targets (L_x, L_y) of the periodic gait for a command: `AlipModel.end_velocity_for_mean`
+    and `lateral_end_momentum`, which are linear in the command, from two constants (this runs every tick):
+
+        L_x = m z v_end(1) vx,    L_y = m z v_end(1) vy - s L_lat,
+
+    with s = +1 at the end of a left stance, -1 of a right one (an array for a sequence of steps) [kg m^2/s]."""
+
+    def __init__(self, model: AlipModel, step_duration_s: float, step_width_m: float) -> None:
+        self.per_velocity = model.mz * float(model.end_velocity_for_mean(1.0, step_duration_s))
+        self.lateral = float(model.lateral_end_momentum(-1, step_width_m, step_duration_s))
+        """m z W w / 2 tanh(w T / 2): the lateral gait's step-end momentum at zero velocity [kg m^2/s]."""
+
+    def __call__(self, command, stance_sign):
+        return self.per_velocity * command[0], self.per_velocity * command[1] - stance_sign * self.lateral

@@ -68,6 +68,12 @@ class StepReach:
         if not (self.max_length_m > 0 and 0 < self.min_width_m < self.max_width_m):
             raise ConfigError("need max_length_m > 0 and 0 < min_width_m < max_width_m")
 
+    def clip(self, step_x: float, step_y: float, swing_side: float) -> tuple[float, float]:
+        """The step within reach: |x| <= max length; the lateral distance toward `swing_side` (+1: the swing
+        foot lands to the left) within [min, max] width [m]."""
+        return (min(max(step_x, -self.max_length_m), self.max_length_m),
+                swing_side * min(max(swing_side * step_y, self.min_width_m), self.max_width_m))
+
 
 @dataclass(frozen=True)
 class MpcSolution:

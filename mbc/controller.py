@@ -28,7 +28,7 @@ from typing import Literal
 
 import numpy as np
 
-from mbc.alip import AlipModel
+from mbc.alip import AlipModel, GaitEndMomenta
 from mbc.alip_mpc import AlipMpc, AlipMpcConfig, StepReach
 from mbc.alip_state import AlipState, alip_state
 from mbc.assumptions import AssumptionReport, saturation
@@ -166,14 +166,12 @@ class AlipController:
         self.ik = WholeBodyIK(cfg.ik, dt=self.dt)
         self.qp = PassivityQp(cfg.qp)
         self._ramp = CommandRamp(cfg.command_rates)
-        reach = StepReach(cfg.max_step_length_m, cfg.min_step_width_m, cfg.max_step_width_m)
-        self.mpc = AlipMpc(self.alip, cfg.mpc, reach, cfg.timing) if cfg.foot_placement == "mpc" else None
+        self.reach = StepReach(cfg.max_step_length_m, cfg.min_step_width_m, cfg.max_step_width_m)
+        self.mpc = AlipMpc(self.alip, cfg.mpc, self.reach, cfg.timing) if cfg.foot_placement == "mpc" else None
         self._kp, self._kd = np.asarray(cfg.kp, float).tolist(), np.asarray(cfg.kd, float).tolist()
         self._gravity_z = float(self.robot.model.gravity.linear[2])  # -9.81 m/s^2
         self._zero_joint_acceleration = np.zeros(digit.NUM_JOINTS)  # qdd_des: the IK gives positions and velocities
-        T = cfg.timing.step_duration_s  # the gait's step-end targets are linear in the command:
-        self._end_velocity_per_mean = float(self.alip.end_velocity_for_mean(1.0, T))
-        self._lateral_gait_momentum = float(self.alip.lateral_end_momentum(-1, cfg.step_width_m, T))
+        self.gait_end_momenta = GaitEndMomenta(self.alip, cfg.timing.step_duration_s, cfg.step_width_m)
         self._last_q_des = digit.Q_STAND.copy()
         self._shift_start_xy, self._shift_offset_xy = np.zeros(2), np.zeros(2)  # the weight shift's pelvis path
         self.fallback_count = 0
@@ -352,7 +350,7 @@ class AlipController:
         heading = yaw_of_quaternion(state.base_quat)
         alip = alip_state(self.robot, self.robot.sole_position(stance), heading)
         omega, first_step_s = self.alip.omega, self.config.timing.first_step_duration_s
-        y_0 = self._lateral_gait_momentum / self.alip.mz / (omega * math.sinh(omega * first_step_s))
+        y_0 = self.gait_end_momenta.lateral / self.alip.mz / (omega * math.sinh(omega * first_step_s))
         x, y = alip.x.tolist()  # CoM from the stance sole, heading frame
         toward_stance = -math.copysign(1.0, y) if y else 0.0
         lateral = toward_stance * max(abs(y) - y_0, 0.0)
@@ -407,7 +405,7 @@ class AlipController:
         """Next foot position relative to the stance sole (heading frame: x, y) [m], by the MPC or the
         one-step law, within reach."""
         swing_side = 1.0 if stance == RIGHT else -1.0  # the swing foot lands to the left (+1) or right (-1)
-        L_des = self._gait_end_momenta(command, swing_side)  # the swing foot becomes the stance foot (+1 left)
+        L_des = self.gait_end_momenta(command, swing_side)  # the swing foot becomes the stance foot (+1 left)
         if self.mpc is not None:
             return self._mpc_step(alip, command, swing_side, L_des[0])
         return self._one_step_law_step(alip, swing_side, L_des)
@@ -416,12 +414,12 @@ class AlipController:
                   Lx_des: float) -> tuple[float, float]:
         """The MPC's first step, within reach; the touchdown retimed as the MPC plans it."""
         signs = swing_side * (-1.0) ** np.arange(self.mpc.config.horizon_steps)  # stance sides of the planned steps
-        sequence = np.c_[np.full(len(signs), Lx_des), self._gait_end_momenta(command, signs)[1]]
+        sequence = np.c_[np.full(len(signs), Lx_des), self.gait_end_momenta(command, signs)[1]]
         solution = self.mpc.solve(alip.x, alip.L, self.clock.time_in_step_s, -int(swing_side), sequence)
         if solution.time_left_s > 0.0:
             self.clock.retime(solution.time_left_s)
         step_x, step_y = solution.steps_m[0].tolist()
-        return self._clip_step(step_x, step_y, swing_side)
+        return self.reach.clip(step_x, step_y, swing_side)
 
     def _one_step_law_step(self, alip: AlipState, swing_side: float, L_des: tuple[float, float]) -> tuple[float, float]:
         """The one-step-ahead law's step, within reach; with step-timing adaptation, a step beyond reach
@@ -430,7 +428,7 @@ class AlipController:
         (x, y), (Lx, Ly), (Lx_des, Ly_des) = alip.x.tolist(), alip.L.tolist(), L_des
         time_left = clock.time_to_touchdown_s
         step_x, step_y = self._law_step(x, y, Lx, Ly, Lx_des, Ly_des, time_left)
-        clipped_x, clipped_y = self._clip_step(step_x, step_y, swing_side)
+        clipped_x, clipped_y = self.reach.clip(step_x, step_y, swing_side)
         beyond_reach_x, beyond_reach_y = clipped_x != step_x, swing_side * step_y > cfg.max_step_width_m
         earliest = (1.0 - clock.phase) * cfg.timing.min_step_duration_s
         if not (cfg.adapt_step_timing and (beyond_reach_x or beyond_reach_y) and 0.0 < earliest < time_left):
@@ -443,27 +441,13 @@ class AlipController:
         if sooner >= time_left:
             return clipped_x, clipped_y
         clock.retime(sooner)
-        return self._clip_step(*self._law_step(x, y, Lx, Ly, Lx_des, Ly_des, clock.time_to_touchdown_s), swing_side)
+        return self.reach.clip(*self._law_step(x, y, Lx, Ly, Lx_des, Ly_des, clock.time_to_touchdown_s), swing_side)
 
     def _law_step(self, x: float, y: float, Lx: float, Ly: float, Lx_des: float, Ly_des: float,
                   time_left: float) -> tuple[float, float]:
         """`AlipModel.one_step_placement` on both axes for a touchdown `time_left` from now."""
         model, T = self.alip, self.config.timing.step_duration_s
         return model.one_step_placement(x, Lx, time_left, Lx_des, T), model.one_step_placement(y, Ly, time_left, Ly_des, T)
-
-    def _gait_end_momenta(self, command: tuple[float, float, float], stance_sign):
-        """Step-end momenta (L_x, L_y) of the periodic gait for `command`, at the end of a stance with
-        `stance_sign` (+1 left, -1 right; an array for a sequence of steps): `AlipModel.end_velocity_for_mean`
-        and `lateral_end_momentum`, which are linear in the command, from two constants [kg m^2/s]."""
-        per_mean_velocity = self.alip.mz * self._end_velocity_per_mean
-        return (per_mean_velocity * command[0],
-                per_mean_velocity * command[1] - stance_sign * self._lateral_gait_momentum)
-
-    def _clip_step(self, step_x: float, step_y: float, swing_side: float) -> tuple[float, float]:
-        """The step within reach: |x| <= max length, the lateral distance within [min, max] width."""
-        cfg = self.config
-        return (min(max(step_x, -cfg.max_step_length_m), cfg.max_step_length_m),
-                swing_side * min(max(swing_side * step_y, cfg.min_step_width_m), cfg.max_step_width_m))
 
     def _time_left_to_fit(self, x: float, L: float, L_des: float, bound: float, step: float, time_left: float,
                           earliest: float) -> float:

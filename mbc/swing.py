@@ -51,7 +51,7 @@ class SwingConfig:
             raise ConfigError(f"apex_phase must be in (0, 1), got {self.apex_phase}")
 
 
-def _vertical(s: float, cfg: SwingConfig, duration: float) -> tuple[float, float]:
+def swing_height(s: float, cfg: SwingConfig, duration: float) -> tuple[float, float]:
     """Height above the landing height and its time derivative at phase s.
 
     Rise: cubic from (0, 0 m/s) to (h, 0 m/s) on [0, apex]; fall: cubic from (h, 0) to
@@ -88,7 +88,7 @@ def swing_reference(p_measured: np.ndarray, p_target: np.ndarray, phase: float, 
         fraction, rate = (b_next - b_now) / remaining, db_next / (remaining * duration_s)
     else:
         fraction, rate = 1.0, 0.0
-    height, velocity_z = _vertical(phase + phase_step, cfg, duration_s)
+    height, velocity_z = swing_height(phase + phase_step, cfg, duration_s)
     position = np.array([x + fraction * dx, y + fraction * dy, z_target + cfg.landing_offset_m + height])
     return position, np.array([rate * dx, rate * dy, velocity_z])
 

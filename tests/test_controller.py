@@ -174,7 +174,7 @@ def test_gait_end_momenta_are_the_alip_models():
     model, T, width = controller.alip, controller.config.timing.step_duration_s, controller.config.step_width_m
     for vx, vy in ((0.0, 0.0), (0.5, -0.2), (-0.3, 0.25)):
         for sign in (1, -1):
-            Lx, Ly = controller._gait_end_momenta((vx, vy, 0.0), sign)
+            Lx, Ly = controller.gait_end_momenta((vx, vy, 0.0), sign)
             assert Lx == pytest.approx(model.mz * model.end_velocity_for_mean(vx, T), abs=1e-12)
             assert Ly == pytest.approx(model.lateral_end_momentum(sign, width, T, vy), abs=1e-12)
             assert Ly != pytest.approx(model.lateral_end_momentum(-sign, width, T, vy), abs=1e-3)  # the side matters

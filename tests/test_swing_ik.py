@@ -7,7 +7,7 @@ from mbc.assumptions import MAR_DELTA, mar_weight
 from mbc.ik import IkTargets, WholeBodyIK
 from mbc.pin_robot import PinRobot
 from mbc.sim import DigitSim
-from mbc.swing import SwingConfig, _vertical, estimate_phase, min_jerk, swing_reference
+from mbc.swing import SwingConfig, estimate_phase, min_jerk, swing_height, swing_reference
 
 
 def test_min_jerk_blend_and_derivative():
@@ -20,14 +20,14 @@ def test_min_jerk_blend_and_derivative():
 
 def test_vertical_profile_apex_landing_and_velocity():
     cfg, T = SwingConfig(clearance_m=0.1, apex_phase=0.5), 0.35
-    assert _vertical(0.0, cfg, T)[0] == pytest.approx(0.0)
-    assert _vertical(0.5, cfg, T) == pytest.approx((0.1, 0.0))
-    assert _vertical(1.0, cfg, T) == pytest.approx((0.0, -cfg.late_descent_mps))
+    assert swing_height(0.0, cfg, T)[0] == pytest.approx(0.0)
+    assert swing_height(0.5, cfg, T) == pytest.approx((0.1, 0.0))
+    assert swing_height(1.0, cfg, T) == pytest.approx((0.0, -cfg.late_descent_mps))
     s = np.linspace(0.01, 0.99, 99)
-    heights = np.array([_vertical(x, cfg, T)[0] for x in s])
-    velocities = np.array([_vertical(x, cfg, T)[1] for x in s])
+    heights = np.array([swing_height(x, cfg, T)[0] for x in s])
+    velocities = np.array([swing_height(x, cfg, T)[1] for x in s])
     np.testing.assert_allclose(velocities[1:-1], np.gradient(heights, s * T)[1:-1], atol=5e-3)
-    assert _vertical(1.2, cfg, T)[0] < 0  # late touchdown: keeps descending
+    assert swing_height(1.2, cfg, T)[0] < 0  # late touchdown: keeps descending
 
 
 def test_time_to_go_reaches_the_target_from_anywhere(rng):
@@ -72,5 +72,5 @@ def test_mar_weight():
 def test_phase_estimate_inverts_the_profile():
     cfg, T = SwingConfig(), 0.35
     for s in (0.1, 0.3, 0.45, 0.6, 0.8, 0.95):
-        height, velocity = _vertical(s, cfg, T)
+        height, velocity = swing_height(s, cfg, T)
         assert estimate_phase(height + cfg.landing_offset_m, velocity, cfg) == pytest.approx(s, abs=1e-6)

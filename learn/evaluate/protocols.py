@@ -48,8 +48,8 @@ from mbc.sim import DigitSim
 from mbc.types import Command, Controller, JointCommand, RobotState
 
 FIXED = ("flat", "max_velocity", "mar", "gait", "sand")
-PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uneven": "C cm", "step_slip": "F friction / 100", "course_slope": "L levels",
-              "course_uneven": "L levels", "course_mixed": "L levels", "course": "L levels",
+PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uneven": "C cm", "step_slip": "F friction / 100",
+              "course_slope": "L levels", "course_uneven": "L levels", "course_mixed": "L levels", "course": "L levels",
               "random_velocity": "N trajectories"}
 OPTIONAL_NUMBER = ("course_slope", "course_uneven", "course_mixed", "course", "random_velocity")
 DEFAULT_PROTOCOLS = ("flat", "course_slope", "course_uneven", "uphill_10", "uphill_12", "uphill_14", "uphill_16",

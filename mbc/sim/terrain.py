@@ -234,8 +234,9 @@ def add_terrain(spec: mujoco.MjSpec, terrain: TerrainConfig, rng: np.random.Gene
         _add_profile(spec, points)
     elif isinstance(terrain, Board):
         _ground(spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05]))
+        centre = [terrain.run_up_m + terrain.length_m / 2, 0.0, terrain.height_m / 2]
         board = spec.worldbody.add_geom(
-            name="board", type=mujoco.mjtGeom.mjGEOM_BOX, pos=[terrain.run_up_m + terrain.length_m / 2, 0.0, terrain.height_m / 2],
+            name="board", type=mujoco.mjtGeom.mjGEOM_BOX, pos=centre,
             size=[terrain.length_m / 2, terrain.width_m / 2, terrain.height_m / 2])
         _ground(board)
         board.friction = (terrain.friction, *CONTACT_FRICTION[1:])
