@@ -28,10 +28,13 @@ from learn.rewards import (
     PURERL_WEIGHTS,
     RewardInputs,
     action_smoothness,
+    base_orientation,
     feet_air_time,
     reward_terms,
     total_reward,
+    vertical_velocity,
 )
+from learn.swing_reward import SwingFootReference
 from mbc.controller import AlipControllerConfig
 from mbc.errors import ConfigError, MbcError
 from mbc.geometry import rotate_inverse, yaw_of_quaternion
@@ -122,6 +125,7 @@ class WalkEnv:
         self.sim = DigitSim(name, seed=self.index, **params)
         self.terrain = spec
         self._feet = [self.sim.model.body(f).id for f in digit.FOOT_LINKS]
+        self._swing_reference = SwingFootReference(self.sim) if self.config.purerl_rewards else None
 
     # --- episode --------------------------------------------------------------------------------
 
@@ -142,6 +146,8 @@ class WalkEnv:
         self._next_command_s = rng.uniform(*cfg.commands.resample_interval_s)
         self._air_time_s, self._in_contact = np.zeros(2), self.state.contact.copy()
         self._earlier_actions = [np.zeros(ACTION_DIM), np.zeros(ACTION_DIM)]
+        if self._swing_reference is not None:
+            self._swing_reference.reset()
         pushes = cfg.pushes
         self._push_at_s = rng.uniform(1.0, 6.0) if rng.random() < pushes.probability else math.inf
         self.builder.reset(self.state)
@@ -213,19 +219,19 @@ class WalkEnv:
             fell, off_terrain = False, True
         terminated = fell or tilt_of(state.base_quat) > cfg.tilt_limit_rad
         truncated = not terminated and (off_terrain or self.episode_time_s >= cfg.episode_length_s - 1e-9)
-        if cfg.purerl_rewards:
-            terms |= self._purerl_terms(state, action)
         if self.episode_time_s >= self._next_command_s:
             self.command = self._sample_command()
             self._next_command_s += self.rng.uniform(*cfg.commands.resample_interval_s)
         self.builder.record_action(action)
-        self.observation = self._observe()
+        self.observation = self._observe()  # (the gait clock advances to the new state)
+        if cfg.purerl_rewards:  # of this tick's command, at the new state
+            terms |= self._purerl_terms(state, action, command)
         self._update_monitors()
         weights = PURERL_WEIGHTS if cfg.purerl_rewards else PAPER_WEIGHTS
         return Step(self.observation, total_reward(terms, weights), terminated, truncated, terms)
 
-    def _purerl_terms(self, state: RobotState, action: np.ndarray) -> dict[str, float]:
-        """Feet air time (at touchdowns) and second-order action smoothness; updates their memory."""
+    def _purerl_terms(self, state: RobotState, action: np.ndarray, command: np.ndarray) -> dict[str, float]:
+        """PureRL's terms (`learn.rewards`); updates the memory of air times and actions."""
         contact = state.contact
         touchdown = contact & ~self._in_contact
         air_time = feet_air_time(self._air_time_s + self.sim.dt, touchdown)
@@ -233,7 +239,10 @@ class WalkEnv:
         self._in_contact = contact.copy()
         smoothness = action_smoothness(action, *self._earlier_actions)
         self._earlier_actions = [np.asarray(action, float).copy(), self._earlier_actions[0]]
-        return {"feet_air_time": air_time, "action_smoothness": smoothness}
+        return {"feet_air_time": air_time, "action_smoothness": smoothness,
+                "swing_foot_tracking": self._swing_reference.reward(self.builder.clock, command, state.base_quat),
+                "vertical_velocity": vertical_velocity(float(state.base_linvel[2])),
+                "base_orientation": base_orientation(state.base_quat)}
 
     # --- privileged -------------------------------------------------------------------------------
 

@@ -6,8 +6,14 @@
     base_motion        |w_xy|^2                                 weight -0.6
 
 Velocities are in the heading frame (linear) and the base frame (angular), as the command is.
-PureRL adds two terms (`PURERL_WEIGHTS`): feet air time, rewarded at each touchdown as the swing's
-air time beyond 0.3 s (legged_gym's form), and second-order action smoothness |a_t - 2a_{t-1} + a_{t-2}|^2.
+PureRL (`PURERL_WEIGHTS`, the paper's baseline: a reward like Radosavovic et al.'s with an ALIP swing-foot
+trajectory, feet air time and second-order smoothness) adds:
+
+    feet_air_time        sum over touchdowns of (air time - 0.3 s) (legged_gym's form)   weight  1.0
+    action_smoothness    |a_t - 2 a_{t-1} + a_{t-2}|^2                                 weight -0.01
+    swing_foot_tracking  exp(-|p_swing - p_ref|^2 / 0.01) (`learn.swing_reward`)       weight  0.5
+    vertical_velocity    v_z^2 of the base [(m/s)^2]                                   weight -2.0
+    base_orientation     |g_xy|^2, the gravity's direction in the base frame, horizontal weight -1.0
 """
 
 from __future__ import annotations
@@ -17,7 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 
 PAPER_WEIGHTS = {"lin_vel_tracking": 1.2, "ang_vel_tracking": 1.1, "torque": -4e-6, "base_motion": -0.6}
-PURERL_WEIGHTS = PAPER_WEIGHTS | {"feet_air_time": 1.0, "action_smoothness": -0.01}
+PURERL_WEIGHTS = PAPER_WEIGHTS | {"feet_air_time": 1.0, "action_smoothness": -0.01, "swing_foot_tracking": 0.5,
+                                  "vertical_velocity": -2.0, "base_orientation": -1.0}
 AIR_TIME_TARGET_S = 0.3
 
 
@@ -52,6 +59,19 @@ def action_smoothness(action: np.ndarray, previous: np.ndarray, before_previous:
     """|a_t - 2 a_{t-1} + a_{t-2}|^2."""
     second = np.asarray(action) - 2.0 * np.asarray(previous) + np.asarray(before_previous)
     return float(second @ second)
+
+
+def vertical_velocity(v_z: float) -> float:
+    """v_z^2 of the base [(m/s)^2]."""
+    return float(v_z * v_z)
+
+
+def base_orientation(quat_wxyz: np.ndarray) -> float:
+    """|g_xy|^2 = sin^2(tilt): the horizontal part of the unit gravity direction in the base frame, where
+    cos(tilt) = 1 - 2 (x^2 + y^2) for the unit quaternion (w, x, y, z)."""
+    _, x, y, _ = np.asarray(quat_wxyz, float).tolist()
+    cos_tilt = 1.0 - 2.0 * (x * x + y * y)
+    return float(1.0 - cos_tilt * cos_tilt)
 
 
 @dataclass(frozen=True)

@@ -168,3 +168,23 @@ def test_walking_off_a_bounded_terrain_ends_the_episode_without_a_fall():
     action, _ = env.label()
     step = env.step(action)
     assert step.truncated and not step.terminated
+
+
+def test_purerl_terms_are_reported_and_weighted_when_on():
+    import dataclasses
+
+    from learn.rewards import PURERL_WEIGHTS
+
+    env = WalkEnv(dataclasses.replace(QUIET, purerl_rewards=True), with_expert=True)
+    env.reset(seed=3)
+    swings = []
+    for _ in range(300):  # the expert walks: past the weight shift, into steps
+        action, _ = env.label()
+        step = env.step(action)
+        assert set(PURERL_WEIGHTS) <= set(step.reward_terms)
+        assert step.reward == pytest.approx(sum(w * step.reward_terms[k] for k, w in PURERL_WEIGHTS.items()))
+        swings.append(step.reward_terms["swing_foot_tracking"])
+    assert 0.0 <= min(swings) and max(swings) <= 1.0 and np.mean(swings[-100:]) > 0.5  # the MBC follows its law
+    plain = WalkEnv(QUIET, with_expert=False)
+    plain.reset(seed=3)
+    assert "swing_foot_tracking" not in plain.step(np.zeros(ACTION_DIM)).reward_terms

@@ -225,6 +225,14 @@ class DigitSim:
         mujoco.mj_subtreeVel(self.model, self.data)
         return self.data.subtree_com[self._pelvis].copy(), self.data.subtree_linvel[self._pelvis].copy()
 
+    def angular_momentum_about(self, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The whole robot's CoM offset from a world point, c - p [m], and its angular momentum about the point,
+        L_c + m (c - p) x v [kg m^2/s], world frame."""
+        com, velocity = self.com_state()  # (mj_subtreeVel also fills subtree_angmom: about the CoM)
+        offset = com - point
+        mass = self.model.body_subtreemass[self._pelvis]
+        return offset, self.data.subtree_angmom[self._pelvis] + mass * np.cross(offset, velocity)
+
     def sole_position(self, foot: int) -> np.ndarray:
         """(3,) centre of the sole of `foot` (0 left, 1 right): its box centre, half the box's height down the
         foot's z axis, world [m]."""
