@@ -14,11 +14,11 @@ from mbc.types import Command, JointCommand
 from robots.digit import constants as digit
 
 
-def _walk(sim: DigitSim, controller, seconds: float, command=Command(0.5)):
+def _walk(sim: DigitSim, controller, seconds: float):
     state = perturbed_stand(sim, 0)
     controller.reset(state)
     for _ in range(int(seconds / sim.dt)):
-        state = sim.step(controller.act(state, command))
+        state = sim.step(controller.act(state, Command(0.5)))
     return state
 
 
