@@ -8,6 +8,7 @@ from pathlib import Path
 
 from learn.evaluate import DEFAULT_PROTOCOLS, SHIFTS, evaluate, write_outputs
 from learn.evaluate.protocols import __doc__ as PROTOCOLS_DOC
+from learn.evaluate.training_seeds import parse_groups, seed_table
 from learn.storage import output_directory
 from mbc.errors import ConfigError
 
@@ -17,8 +18,8 @@ def main(argv: list[str] | None = None) -> int:
                                      description="Run the evaluation protocols on controllers.",
                                      epilog=PROTOCOLS_DOC + "\nShifts (--shifts):\n\n" + "\n".join(
                                          f"* `{s.name}`: {s.describe}" for s in SHIFTS.values()))
-    parser.add_argument("--controllers", "--controller", nargs="+", default=["mbc"],
-                        help="'mbc' or policy checkpoint paths (default: mbc)")
+    parser.add_argument("--controllers", "--controller", nargs="+", default=None,
+                        help="'mbc' or policy checkpoint paths (default: mbc, none with --groups)")
     parser.add_argument("--protocols", nargs="+", default=list(DEFAULT_PROTOCOLS), help="default: all of the paper's")
     parser.add_argument("--shifts", nargs="+", default=["nominal"], help=f"among {list(SHIFTS)} (default: nominal)")
     parser.add_argument("--seeds", type=int, default=5)
@@ -26,13 +27,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=None, help="directory for NAME.md, NAME.csv, results.json, *.png")
     parser.add_argument("--backend", choices=["process", "ray"], default="process",
                         help="worker processes on this machine, or tasks of a Ray cluster (default: process)")
+    parser.add_argument("--groups", nargs="+", default=[], metavar="NAME=PATHS",
+                        help="methods over training seeds: NAME=PATH[,PATH...] (globs allowed), one policy per training "
+                             "seed, evaluated as --controllers; adds the table over training seeds (training_seeds.md)")
     parser.add_argument("--ray-address", default=None,
                         help="the Ray cluster to join with --backend ray ('auto' on one of its nodes; docs/cluster.md)")
     args = parser.parse_args(argv)
     try:
         if args.out is not None:
             output_directory(args.out, "--out")  # before the work, not after it
-        results = evaluate(args.controllers, args.protocols, args.seeds, args.workers, args.shifts, progress=True,
+        groups = parse_groups(args.groups)
+        named = args.controllers if args.controllers is not None else ([] if groups else ["mbc"])
+        controllers = list(dict.fromkeys(named + [p for paths in groups.values() for p in paths]))
+        results = evaluate(controllers, args.protocols, args.seeds, args.workers, args.shifts, progress=True,
                            backend=args.backend, ray_address=args.ray_address)
     except ConfigError as error:
         print(f"error: {error}", file=sys.stderr)
@@ -40,8 +47,14 @@ def main(argv: list[str] | None = None) -> int:
     print(results.table())
     for shift in args.shifts:
         print(f"\n### At a glance ({shift})\n\n{results.summary(shift)}")
+    for shift in args.shifts if groups else ():
+        print(f"\n### Over training seeds ({shift})\n\n{seed_table(results, groups, shift)}")
     if args.out is not None:
         written = write_outputs(results, args.out)
+        if groups:
+            path = args.out / "training_seeds.md"
+            path.write_text("\n\n".join(f"### {shift}\n\n{seed_table(results, groups, shift)}" for shift in args.shifts) + "\n")
+            written.append(path)
         print(f"\nwrote {len(written)} files to {args.out}")
     return 0
 
