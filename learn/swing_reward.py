@@ -77,11 +77,14 @@ class SwingFootReference:
             pz = float(stance_sole[2])
         return np.array([px, py, pz])
 
-    def reference(self, clock: GaitClock, command: np.ndarray, base_quat: np.ndarray) -> np.ndarray | None:
-        """(3,) the swing sole's reference now, world [m]; None during the weight shift."""
+    def reference(self, clock: GaitClock, command: np.ndarray, base_quat: np.ndarray,
+                  swing_sole: np.ndarray | None = None) -> np.ndarray | None:
+        """(3,) the swing sole's reference now, world [m]; None during the weight shift. `swing_sole`: the swing
+        foot's sole now, if the caller has it."""
         if clock.shifting_weight:
             return None
-        swing_sole = self.sim.sole_position(clock.swing)
+        if swing_sole is None:
+            swing_sole = self.sim.sole_position(clock.swing)
         if clock.touchdowns != self._touchdowns:  # a new step: its swing starts where the foot is
             self._touchdowns, self._liftoff = clock.touchdowns, swing_sole.copy()
         landing = self.landing(clock, command, yaw_of_quaternion(base_quat))
@@ -94,9 +97,10 @@ class SwingFootReference:
 
     def reward(self, clock: GaitClock, command: np.ndarray, base_quat: np.ndarray) -> float:
         """exp(-|p_swing - p_ref|^2 / SIGMA_M2); 0 in the weight shift."""
-        reference = self.reference(clock, command, base_quat)
+        swing_sole = self.sim.sole_position(clock.swing)
+        reference = self.reference(clock, command, base_quat, swing_sole)
         if reference is None:
             return 0.0
-        error = self.sim.sole_position(clock.swing) - reference
+        error = swing_sole - reference
         return float(np.exp(-float(error @ error) / SIGMA_M2))
 

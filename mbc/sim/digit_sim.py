@@ -229,9 +229,11 @@ class DigitSim:
         """The whole robot's CoM offset from a world point, c - p [m], and its angular momentum about the point,
         L_c + m (c - p) x v [kg m^2/s], world frame."""
         com, velocity = self.com_state()  # (mj_subtreeVel also fills subtree_angmom: about the CoM)
-        offset = com - point
-        mass = self.model.body_subtreemass[self._pelvis]
-        return offset, self.data.subtree_angmom[self._pelvis] + mass * np.cross(offset, velocity)
+        (rx, ry, rz), (vx, vy, vz) = (com - point).tolist(), velocity.tolist()
+        mass = float(self.model.body_subtreemass[self._pelvis])  # the cross product in scalars: np.cross costs 20 us
+        spin = self.data.subtree_angmom[self._pelvis]
+        moment = np.array([ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx])
+        return np.array([rx, ry, rz]), spin + mass * moment
 
     def sole_position(self, foot: int) -> np.ndarray:
         """(3,) centre of the sole of `foot` (0 left, 1 right): its box centre, half the box's height down the
