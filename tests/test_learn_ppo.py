@@ -1,6 +1,7 @@
 """The fine-tuning loss term by term, the paper's variants as configurations, and short runs."""
 
 import dataclasses
+import json
 import math
 from pathlib import Path
 
@@ -197,6 +198,15 @@ def test_a_short_run_resumes_where_it_stopped(tmp_path):
     runner.learn()
     state = torch.load(tmp_path / "ifm" / "training_state.pt", weights_only=True)
     assert state["iteration"] == 2 and state["samples"] == 3 * 2 * 60
+
+
+def test_a_short_purerl_run_logs_its_reward_terms(tmp_path):
+    FinetuneRunner(_short_run(tmp_path, "purerl", 2)).learn()
+    rows = [json.loads(line) for line in (tmp_path / "purerl" / "scalars.jsonl").read_text().splitlines()]
+    assert len(rows) == 2
+    for term in ("swing_foot_tracking", "feet_air_time", "action_smoothness", "vertical_velocity", "base_orientation"):
+        assert math.isfinite(rows[-1][f"reward/{term}"]), term
+    assert 0.0 <= rows[-1]["reward/swing_foot_tracking"] <= 1.0
 
 
 def _evaluation_reward(policy_path: Path, env: EnvConfig) -> float:
