@@ -29,6 +29,7 @@ from learn.rewards import (
     RewardInputs,
     action_smoothness,
     base_orientation,
+    cos_tilt,
     feet_air_time,
     reward_terms,
     total_reward,
@@ -73,8 +74,7 @@ def sample_command(rng: np.random.Generator, sampling: CommandSampling) -> np.nd
 
 def tilt_of(quat_wxyz: np.ndarray) -> float:
     """Angle between the base z axis and the world vertical [rad]."""
-    _, x, y, _ = quat_wxyz.tolist()
-    return math.acos(min(max(1.0 - 2.0 * (x * x + y * y), -1.0), 1.0))
+    return math.acos(min(max(cos_tilt(quat_wxyz), -1.0), 1.0))
 
 
 @dataclass

@@ -66,12 +66,16 @@ def vertical_velocity(v_z: float) -> float:
     return float(v_z * v_z)
 
 
-def base_orientation(quat_wxyz: np.ndarray) -> float:
-    """|g_xy|^2 = sin^2(tilt): the horizontal part of the unit gravity direction in the base frame, where
-    cos(tilt) = 1 - 2 (x^2 + y^2) for the unit quaternion (w, x, y, z)."""
+def cos_tilt(quat_wxyz: np.ndarray) -> float:
+    """Cosine of the angle between the base z axis and the world vertical: 1 - 2 (x^2 + y^2) for the unit
+    quaternion (w, x, y, z)."""
     _, x, y, _ = np.asarray(quat_wxyz, float).tolist()
-    cos_tilt = 1.0 - 2.0 * (x * x + y * y)
-    return float(1.0 - cos_tilt * cos_tilt)
+    return 1.0 - 2.0 * (x * x + y * y)
+
+
+def base_orientation(quat_wxyz: np.ndarray) -> float:
+    """|g_xy|^2 = sin^2(tilt) = 1 - cos^2(tilt): the horizontal part of the unit gravity direction in the base frame."""
+    return 1.0 - cos_tilt(quat_wxyz) ** 2
 
 
 @dataclass(frozen=True)

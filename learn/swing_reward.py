@@ -3,9 +3,8 @@ would have it, computed from the robot's own state (no IK, no QP, no expert).
 
 Each tick of a step (stance foot, phase s and step duration T from the observation's gait clock):
 
-1. the ALIP state about the stance sole in the heading frame, from MuJoCo (`DigitSim.angular_momentum_about`):
-   x = c - p (CoM from the sole) and the pendulum momenta of L_p = L_c + m (c - p) x v (`mbc.alip_state`'s
-   convention: sagittal L_y, lateral -L_x);
+1. the ALIP state about the stance sole in the heading frame (`mbc.alip_state.alip_state_of`) from MuJoCo's
+   CoM, velocity and angular momentum about the sole, L_p = L_c + m (c - p) x v (`DigitSim.momentum_about`);
 2. the landing step of the one-step-ahead law for the command, touchdown `time_to_touchdown_s` from now
    (`AlipModel.one_step_placement` toward the periodic gait's step-end momenta `mbc.alip.GaitEndMomenta`), within
    the MBC's reach (`StepReach.clip`), on the terrain's surface there;
@@ -19,12 +18,11 @@ and 0 during the standing start's weight shift (both feet down, no swing).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from mbc.alip import AlipModel, GaitEndMomenta
 from mbc.alip_mpc import StepReach
+from mbc.alip_state import alip_state_of
 from mbc.controller import AlipControllerConfig
 from mbc.errors import MbcError
 from mbc.geometry import rotate_z, yaw_of_quaternion
@@ -52,18 +50,11 @@ class SwingFootReference:
         """Start an episode: the next step's liftoff is read afresh."""
         self._touchdowns = -1
 
-    def alip_state(self, stance_sole: np.ndarray, heading: float) -> tuple[tuple[float, float], tuple[float, float]]:
-        """(x, y) of the CoM from the stance sole and the pendulum momenta (sagittal, lateral) about it, heading
-        frame [m, kg m^2/s]."""
-        r, L = self.sim.angular_momentum_about(stance_sole)
-        cos_yaw, sin_yaw = math.cos(heading), math.sin(heading)
-        x = (cos_yaw * r[0] + sin_yaw * r[1], -sin_yaw * r[0] + cos_yaw * r[1])
-        return x, (-sin_yaw * L[0] + cos_yaw * L[1], -(cos_yaw * L[0] + sin_yaw * L[1]))
-
     def landing(self, clock: GaitClock, command: np.ndarray, heading: float) -> np.ndarray:
         """(3,) the one-step law's landing point of the swing foot, world [m]."""
         stance_sole = self.sim.sole_position(clock.stance)
-        (x, y), (Lx, Ly) = self.alip_state(stance_sole, heading)
+        alip = alip_state_of(*self.sim.momentum_about(stance_sole), heading)
+        (x, y), (Lx, Ly) = alip.x.tolist(), alip.L.tolist()
         swing_side = 1.0 if clock.stance == RIGHT else -1.0
         Lx_des, Ly_des = self.momenta(command, swing_side)
         T, time_left = self.config.timing.step_duration_s, clock.time_to_touchdown_s

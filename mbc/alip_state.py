@@ -25,13 +25,17 @@ class AlipState:
 
 
 def alip_state(robot: PinRobot, contact_point_world: np.ndarray, yaw: float) -> AlipState:
-    """The ALIP state of `robot` (already `update`d) about `contact_point_world`, heading `yaw`.
+    """The ALIP state of `robot` (already `update`d) about `contact_point_world`, heading `yaw`."""
+    return alip_state_of(*robot.momentum_about(contact_point_world), yaw)
 
-    CoM offset, angular momentum about the point and CoM velocity, rotated by -yaw into the
-    heading frame (scalar maths: this runs every control tick).
-    """
+
+def alip_state_of(offset: tuple[float, float, float], velocity: tuple[float, float, float],
+                  momentum: tuple[float, float, float], yaw: float) -> AlipState:
+    """The ALIP state from the CoM minus the contact point [m], the CoM velocity [m/s] and the angular momentum
+    about the point [kg m^2/s] (world float triples, `PinRobot.momentum_about`'s or `DigitSim.momentum_about`'s),
+    rotated by -yaw into the heading frame (scalar maths: this runs every control tick)."""
     cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
-    (rx, ry, rz), (vx, vy, vz), (Lx, Ly, _) = robot.momentum_about(contact_point_world)
+    (rx, ry, rz), (vx, vy, vz), (Lx, Ly, _) = offset, velocity, momentum
     return AlipState(
         x=np.array([cos_yaw * rx + sin_yaw * ry, -sin_yaw * rx + cos_yaw * ry]),
         L=np.array([-sin_yaw * Lx + cos_yaw * Ly, -(cos_yaw * Lx + sin_yaw * Ly)]),

@@ -6,6 +6,7 @@ import pytest
 from learn.rewards import base_orientation
 from learn.swing_reward import SwingFootReference
 from mbc import AlipController
+from mbc.alip_state import alip_state_of
 from mbc.geometry import yaw_of_quaternion
 from mbc.rollout import perturbed_stand
 from mbc.sim import DigitSim
@@ -22,14 +23,14 @@ def _walk(sim: DigitSim, controller, seconds: float):
     return state
 
 
-def test_alip_state_from_mujoco_matches_the_controllers_pinocchio_one():
+def test_alip_state_from_mujoco_matches_the_controllers_pinocchio_one():  # DigitSim.momentum_about
     sim, controller = DigitSim("flat", seed=0), AlipController.for_digit()
     state = _walk(sim, controller, 1.3)
     controller.act(state, Command(0.5))  # its diagnostics of this very state
     seen = controller.last_diagnostics
-    x, L = SwingFootReference(sim).alip_state(seen.stance_sole_world, yaw_of_quaternion(state.base_quat))
-    np.testing.assert_allclose(x, seen.alip.x, atol=0.01)  # the two models' CoMs within a centimetre
-    np.testing.assert_allclose(L, seen.alip.L, atol=0.03 * np.abs(seen.alip.L).max() + 0.5)
+    mujoco_alip = alip_state_of(*sim.momentum_about(seen.stance_sole_world), yaw_of_quaternion(state.base_quat))
+    np.testing.assert_allclose(mujoco_alip.x, seen.alip.x, atol=0.01)  # the two models' CoMs within a centimetre
+    np.testing.assert_allclose(mujoco_alip.L, seen.alip.L, atol=0.03 * np.abs(seen.alip.L).max() + 0.5)
 
 
 def test_the_reference_starts_at_the_liftoff_and_ends_on_the_landing_point():

@@ -189,10 +189,15 @@ def _incline(sign: int):
     return run
 
 
-def _uneven(controller, centimetres, seed, shift) -> dict:
-    sim, shifted, state = _start("uneven", seed, shift, controller, amplitude=centimetres / 100)
+def _distance_walked(terrain: str, controller, seed, shift, **terrain_params) -> dict:
+    """0.4 m/s for 20 s on `terrain`: no fall; the distance along +x [m]."""
+    sim, shifted, state = _start(terrain, seed, shift, controller, **terrain_params)
     episode = run_episode(sim, shifted, Command(0.4), 20.0, state=state)
     return {"success": not episode.fell, "fell": episode.fell, "metric": float(episode.base_pos[-1][0])}
+
+
+def _uneven(controller, centimetres, seed, shift) -> dict:
+    return _distance_walked("uneven", controller, seed, shift, amplitude=centimetres / 100)
 
 
 def _step_slip(controller, hundredths, seed, shift) -> dict:
@@ -210,9 +215,7 @@ def _step_slip(controller, hundredths, seed, shift) -> dict:
 
 
 def _sand(controller, _, seed, shift) -> dict:
-    sim, shifted, state = _start("soft", seed, shift, controller)
-    episode = run_episode(sim, shifted, Command(0.4), 20.0, state=state)
-    return {"success": not episode.fell, "fell": episode.fell, "metric": float(episode.base_pos[-1][0])}
+    return _distance_walked("soft", controller, seed, shift)
 
 
 def random_commands(rng: np.random.Generator, count: int = 4, duration_s: float = RANDOM_COMMAND_S) -> CommandSchedule:

@@ -225,15 +225,16 @@ class DigitSim:
         mujoco.mj_subtreeVel(self.model, self.data)
         return self.data.subtree_com[self._pelvis].copy(), self.data.subtree_linvel[self._pelvis].copy()
 
-    def angular_momentum_about(self, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The whole robot's CoM offset from a world point, c - p [m], and its angular momentum about the point,
-        L_c + m (c - p) x v [kg m^2/s], world frame."""
+    def momentum_about(self, point: np.ndarray) -> tuple[tuple[float, float, float], tuple[float, float, float],
+                                                          tuple[float, float, float]]:
+        """The whole robot's CoM minus a world point [m], CoM velocity [m/s] and angular momentum about the point,
+        L_c + m (c - p) x v [kg m^2/s], world axes, as float triples (`PinRobot.momentum_about`'s form)."""
         com, velocity = self.com_state()  # (mj_subtreeVel also fills subtree_angmom: about the CoM)
         (rx, ry, rz), (vx, vy, vz) = (com - point).tolist(), velocity.tolist()
-        mass = float(self.model.body_subtreemass[self._pelvis])  # the cross product in scalars: np.cross costs 20 us
-        spin = self.data.subtree_angmom[self._pelvis]
-        moment = np.array([ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx])
-        return np.array([rx, ry, rz]), spin + mass * moment
+        kx, ky, kz = self.data.subtree_angmom[self._pelvis].tolist()
+        m = float(self.model.body_subtreemass[self._pelvis])
+        return ((rx, ry, rz), (vx, vy, vz),
+                (kx + m * (ry * vz - rz * vy), ky + m * (rz * vx - rx * vz), kz + m * (rx * vy - ry * vx)))
 
     def sole_position(self, foot: int) -> np.ndarray:
         """(3,) centre of the sole of `foot` (0 left, 1 right): its box centre, half the box's height down the
