@@ -23,6 +23,7 @@ from typing import Literal
 import tyro
 
 from learn.config import DistillConfig, WorkerConfig
+from learn.curriculum import TerrainCurriculum
 from learn.dagger_runner import DaggerRunner
 from learn.evaluate import evaluate, write_outputs
 from learn.export import export_onnx
@@ -53,6 +54,9 @@ class Args:
     workers: WorkerConfig = field(default_factory=WorkerConfig)
     evaluation_seeds: int = 5
     """Seeds per protocol of the final comparison (0: skip it)."""
+    start_level: int | None = None
+    """Highest terrain-curriculum level an environment starts at (levels 0-9; default 5, to 14 deg, for a pre-trained
+    policy, which already climbs; 0 for PureRL, which learns to stand and step first)."""
     seed: int = 0
     device: str = "cpu"
     """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
@@ -73,8 +77,11 @@ def main(args: Args) -> None:
     iterations = args.iterations if args.iterations is not None else {"default": FinetuneConfig.iterations,
                                                                        "paper": 10_000}[args.preset]
     finetune_dir = args.run_dir / "finetune"
+    start_level = args.start_level if args.start_level is not None else (0 if args.method == "purerl" else
+                                                                          TerrainCurriculum.initial_max_level)
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
+                            curriculum=TerrainCurriculum(initial_max_level=start_level),
                             resume=args.resume and (finetune_dir / "training_state.pt").exists())
     if args.preset == "paper":  # 10,000 iterations of 40,000 steps: the paper's 400 M samples
         config = dataclasses.replace(config, steps_per_env=40_000 // args.workers.num_envs)
