@@ -25,6 +25,7 @@ from learn.expert import Expert
 from learn.observation import ObservationBuilder
 from learn.rewards import (
     PAPER_WEIGHTS,
+    PURERL_REWARD_FLOOR,
     PURERL_WEIGHTS,
     RewardInputs,
     action_smoothness,
@@ -227,8 +228,9 @@ class WalkEnv:
         if cfg.purerl_rewards:  # of this tick's command, at the new state
             terms |= self._purerl_terms(state, action, command)
         self._update_monitors()
-        weights = PURERL_WEIGHTS if cfg.purerl_rewards else PAPER_WEIGHTS
-        return Step(self.observation, total_reward(terms, weights), terminated, truncated, terms)
+        reward = (total_reward(terms, PURERL_WEIGHTS, PURERL_REWARD_FLOOR) if cfg.purerl_rewards
+                  else total_reward(terms, PAPER_WEIGHTS))
+        return Step(self.observation, reward, terminated, truncated, terms)
 
     def _purerl_terms(self, state: RobotState, action: np.ndarray, command: np.ndarray) -> dict[str, float]:
         """PureRL's terms (`learn.rewards`); updates the memory of air times and actions."""

@@ -182,9 +182,27 @@ def test_purerl_terms_are_reported_and_weighted_when_on():
         action, _ = env.label()
         step = env.step(action)
         assert set(PURERL_WEIGHTS) <= set(step.reward_terms)
-        assert step.reward == pytest.approx(sum(w * step.reward_terms[k] for k, w in PURERL_WEIGHTS.items()))
+        assert step.reward == pytest.approx(max(0.0, sum(w * step.reward_terms[k] for k, w in PURERL_WEIGHTS.items())))
         swings.append(step.reward_terms["swing_foot_tracking"])
     assert 0.0 <= min(swings) and max(swings) <= 1.0 and np.mean(swings[-100:]) > 0.5  # the MBC follows its law
     plain = WalkEnv(QUIET, with_expert=False)
     plain.reset(seed=3)
     assert "swing_foot_tracking" not in plain.step(np.zeros(ACTION_DIM)).reward_terms
+
+
+def test_purerl_reward_is_floored_so_that_falling_sooner_does_not_pay():
+    import dataclasses
+
+    from learn.rewards import PURERL_WEIGHTS
+
+    env = WalkEnv(dataclasses.replace(QUIET, purerl_rewards=True), with_expert=False)
+    env.reset(seed=0)
+    rewards, sums = [], []
+    for _ in range(400):  # a zero action asks for no torque: Digit collapses
+        step = env.step(np.zeros(ACTION_DIM))
+        rewards.append(step.reward)
+        sums.append(sum(w * step.reward_terms[k] for k, w in PURERL_WEIGHTS.items()))
+        if step.terminated:
+            break
+    assert step.terminated and min(sums) < 0.0  # the penalties of the collapse outweigh the tracking terms
+    assert min(rewards) >= 0.0 and rewards == pytest.approx([max(0.0, x) for x in sums])
