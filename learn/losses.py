@@ -80,3 +80,10 @@ def lipschitz_penalty(network, inputs: torch.Tensor, generator: torch.Generator 
     v = torch.randn(outputs.shape, generator=generator, dtype=outputs.dtype).to(outputs.device)  # CPU generator: any device
     (gradient,) = torch.autograd.grad(outputs, inputs, grad_outputs=v, create_graph=True)
     return gradient.square().sum(dim=-1).mean()
+
+
+def gaussian_kl(old_mean: torch.Tensor, old_std: torch.Tensor, new_mean: torch.Tensor, new_std: torch.Tensor) -> torch.Tensor:
+    """Mean over samples of KL(old || new) of diagonal Gaussians:
+    sum_i log(s_i / s0_i) + (s0_i^2 + (m0_i - m_i)^2) / (2 s_i^2) - 1/2."""
+    return (torch.log(new_std / old_std) + (old_std.square() + (old_mean - new_mean).square()) / (2 * new_std.square())
+            - 0.5).sum(-1).mean()

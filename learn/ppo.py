@@ -20,6 +20,7 @@ from learn.losses import (
     clipped_surrogate,
     clipped_value_loss,
     expert_regularizer,
+    gaussian_kl,
     generalized_advantages,
     lipschitz_penalty,
     mar_weight,
@@ -182,16 +183,17 @@ class Ppo:
         for _ in range(cfg.epochs):
             order = torch.randperm(n, generator=self.generator)
             for batch in order.chunk(cfg.minibatches):
-                terms = self._terms(obs[batch], actions[batch], old_log_probs[batch], old_values[batch], returns[batch],
-                                    advantages[batch], expert_actions[batch], weights[batch], labelled[batch], critic_only)
+                terms, mean = self._terms(obs[batch], actions[batch], old_log_probs[batch], old_values[batch], returns[batch],
+                                          advantages[batch], expert_actions[batch], weights[batch], labelled[batch],
+                                          critic_only)
                 loss = sum(terms.values())
+                if not critic_only:  # how far the actor has moved, on this minibatch before its step (rsl_rl's order)
+                    terms["kl"] = gaussian_kl(old_mean[batch], old_std, mean.detach(), self.model.log_std.detach().exp())
+                    self._adapt_learning_rate(float(terms["kl"]))
                 self.optimizer.zero_grad(set_to_none=True)
                 loss.backward()
                 torch.nn.utils.clip_grad_norm_(self.model.parameters(), cfg.max_grad_norm)
                 self.optimizer.step()
-                if not critic_only:  # the actor moved: adapt its learning rate to how far
-                    terms["kl"] = torch.tensor(self._kl(old_mean[batch], old_std, obs[batch]))
-                    self._adapt_learning_rate(float(terms["kl"]))
                 for name, value in terms.items():
                     sums[name] = sums.get(name, 0.0) + float(value.detach())
                 count += 1
@@ -202,11 +204,12 @@ class Ppo:
         return stats
 
     def _terms(self, obs, actions, old_log_probs, old_values, returns, advantages, expert_actions, weights, labelled,
-               critic_only: bool) -> dict[str, torch.Tensor]:
+               critic_only: bool) -> tuple[dict[str, torch.Tensor], torch.Tensor | None]:
+        """The loss terms of one minibatch, and the actor's mean on it (None for the critic alone)."""
         cfg = self.config
         terms = {"value": cfg.value_coef * clipped_value_loss(self.model.value(obs), old_values, returns, cfg.clip)}
         if critic_only:
-            return terms
+            return terms, None
         distribution = self.model.distribution(obs)
         terms["surrogate"] = clipped_surrogate(distribution.log_prob(actions).sum(-1), old_log_probs, advantages, cfg.clip)
         terms["entropy"] = -cfg.entropy_coef * distribution.entropy().sum(-1).mean()
@@ -215,15 +218,7 @@ class Ppo:
         if self.regularizer.lipschitz_alpha > 0:
             terms["lipschitz"] = self.regularizer.lipschitz_alpha * lipschitz_penalty(
                 self.model.actor, self.model.normalizer(obs), self.generator, self.regularizer.lipschitz_samples)
-        return terms
-
-    def _kl(self, old_mean: torch.Tensor, old_std: torch.Tensor, obs: torch.Tensor) -> float:
-        """Mean KL(old || new) of the diagonal Gaussians."""
-        with torch.no_grad():
-            new_mean, new_std = self.model.action_mean(obs), self.model.log_std.exp()
-            kl = (torch.log(new_std / old_std) + (old_std.square() + (old_mean - new_mean).square()) / (2 * new_std.square())
-                  - 0.5).sum(-1)
-        return float(kl.mean())
+        return terms, distribution.mean
 
     def _adapt_learning_rate(self, kl: float) -> None:
         low, high = self.config.learning_rate_bounds

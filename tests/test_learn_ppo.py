@@ -15,6 +15,7 @@ from learn.losses import (
     clipped_surrogate,
     clipped_value_loss,
     expert_regularizer,
+    gaussian_kl,
     generalized_advantages,
     lipschitz_penalty,
     mar_weight,
@@ -92,6 +93,16 @@ def test_lipschitz_penalty_on_a_subset_is_unbiased_for_the_full_batch_of_a_nonli
     standard_error = float(draws.std()) / len(draws) ** 0.5
     assert abs(float(draws.mean()) - exact) < 4 * standard_error
     assert float(lipschitz_penalty(network, inputs, generator, samples=1000)) > 0  # more samples than rows: all rows
+
+
+def test_gaussian_kl_matches_torch_distributions():
+    generator = torch.Generator().manual_seed(0)
+    old_mean, new_mean = torch.randn(50, 24, generator=generator), torch.randn(50, 24, generator=generator)
+    old_std, new_std = torch.rand(24, generator=generator) + 0.1, torch.rand(24, generator=generator) + 0.1
+    reference = torch.distributions.kl_divergence(torch.distributions.Normal(old_mean, old_std),
+                                                  torch.distributions.Normal(new_mean, new_std)).sum(-1).mean()
+    assert float(gaussian_kl(old_mean, old_std, new_mean, new_std)) == pytest.approx(float(reference), rel=1e-5)
+    assert float(gaussian_kl(old_mean, old_std, old_mean, old_std)) == pytest.approx(0.0, abs=1e-6)
 
 
 def test_variants_differ_only_in_their_regularizer():
