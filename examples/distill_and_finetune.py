@@ -28,7 +28,7 @@ from learn.dagger_runner import DaggerRunner
 from learn.evaluate import evaluate, write_outputs
 from learn.export import export_onnx
 from learn.finetune import DISTILLED, FinetuneConfig, FinetuneRunner
-from learn.ppo import Method
+from learn.ppo import PAPER_MONITORS, Method
 from learn.storage import output_directory
 from mbc.errors import ConfigError, MbcError
 
@@ -51,6 +51,9 @@ class Args:
     """PPO iterations (overrides the preset)."""
     label_every: int = FinetuneConfig.label_every
     """PPF and FullReg: the expert labels every k-th tick (1: every tick, 1,741 steps/s on 2 cores; 4: 3,816)."""
+    mar_monitors: tuple[str, ...] = PAPER_MONITORS
+    """PPF: the assumption monitors of the MAR weight, its product over them (com_vertical_velocity_mps,
+    com_height_error_m, stance_slip_speed_mps; the paper's: z' alone)."""
     workers: WorkerConfig = field(default_factory=WorkerConfig)
     evaluation_seeds: int = 5
     """Seeds per protocol of the final comparison (0: skip it)."""
@@ -81,6 +84,7 @@ def main(args: Args) -> None:
                                                                           TerrainCurriculum.initial_max_level)
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
+                            mar_monitors=args.mar_monitors,
                             curriculum=TerrainCurriculum(initial_max_level=start_level),
                             resume=args.resume and (finetune_dir / "training_state.pt").exists())
     if args.preset == "paper":  # 10,000 iterations of 40,000 steps: the paper's 400 M samples

@@ -27,7 +27,7 @@ from learn.console import append_scalars, iteration_line, number
 from learn.curriculum import TerrainCurriculum, VelocityCurriculum
 from learn.observation import ObservationLayout
 from learn.policy import ActorCritic, check_gains, learner_device, load_checkpoint
-from learn.ppo import METHODS, Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
+from learn.ppo import METHODS, PAPER_MONITORS, Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
 from learn.storage import output_directory
 from learn.vec_env import RolloutRequest, rollout_seed, vec_env_for
 from mbc.errors import ConfigError
@@ -56,6 +56,8 @@ class FinetuneConfig:
     label_every: int = 4
     """PPF and FullReg: the expert labels every k-th tick (its clock still sees every tick); 4 keeps PPO
     above 3,500 steps/s on 2 cores (`benchmarks/bench_ppo_throughput.py`)."""
+    mar_monitors: tuple[str, ...] = PAPER_MONITORS
+    """PPF: the assumption monitors its MAR weight reads (`learn.ppo.MONITOR_DELTAS`; the paper's CoM z' alone)."""
     init_log_std: float = -2.0
     """Log standard deviation of the exploration noise at the start (normalized action units)."""
     terrain_curriculum: bool = True
@@ -77,9 +79,10 @@ class FinetuneConfig:
         if self.label_every < 1 and self.method in ("ppf", "fullreg"):
             raise ConfigError(f"{self.method} regularizes toward the expert's labels: label_every must be >= 1 "
                               f"(1: every tick, 4: the default), got {self.label_every}")
+        self.regularizer()  # checks the MAR monitors
 
     def regularizer(self) -> RegularizerConfig:
-        return method_regularizer(self.method, self.label_every)
+        return method_regularizer(self.method, self.label_every, self.mar_monitors)
 
 
 class FinetuneRunner:

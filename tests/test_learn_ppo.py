@@ -21,7 +21,8 @@ from learn.losses import (
     mar_weight,
 )
 from learn.policy import ActorCritic
-from learn.ppo import METHODS, Ppo, PpoConfig, method_regularizer
+from learn.ppo import METHODS, MONITOR_DELTAS, Ppo, PpoConfig, method_regularizer
+from mbc.assumptions import MAR_DELTA, MAR_W0
 from mbc.errors import ConfigError
 
 
@@ -103,6 +104,26 @@ def test_gaussian_kl_matches_torch_distributions():
                                                   torch.distributions.Normal(new_mean, new_std)).sum(-1).mean()
     assert float(gaussian_kl(old_mean, old_std, new_mean, new_std)) == pytest.approx(float(reference), rel=1e-5)
     assert float(gaussian_kl(old_mean, old_std, old_mean, old_std)) == pytest.approx(0.0, abs=1e-6)
+
+
+def test_mar_over_several_monitors_is_the_product_of_their_weights():
+    monitors = ("com_vertical_velocity_mps", "stance_slip_speed_mps")
+    regularizer = method_regularizer("ppf", monitors=monitors)
+    assert regularizer.deltas == (MAR_DELTA, MONITOR_DELTAS["stance_slip_speed_mps"])
+    ppo = Ppo(ActorCritic(8), PpoConfig(), regularizer)
+    values = torch.tensor([[0.1, 0.004, 0.3], [0.0, 0.05, 0.0]])  # (z', height error, slip) per sample
+    expected = MAR_W0 * torch.exp(-values[:, 0] ** 2 / MAR_DELTA - values[:, 2] ** 2 / MONITOR_DELTAS["stance_slip_speed_mps"])
+    assert torch.allclose(ppo.regularization_weight(values), expected)
+    paper = Ppo(ActorCritic(8), PpoConfig(), method_regularizer("ppf"))  # z' alone: the height error is ignored
+    assert torch.allclose(paper.regularization_weight(values), MAR_W0 * torch.exp(-values[:, 0] ** 2 / MAR_DELTA))
+
+
+@pytest.mark.parametrize("method, monitors, match", [("ppf", ("com_height",), "MAR monitors"),
+                                                     ("ppf", (), "MAR monitors"),
+                                                     ("fullreg", ("stance_slip_speed_mps",), "only ppf")])
+def test_bad_mar_monitors_are_refused(tmp_path, method, monitors, match):
+    with pytest.raises(ConfigError, match=match):
+        FinetuneConfig(method=method, run_dir=tmp_path, mar_monitors=monitors)
 
 
 def test_variants_differ_only_in_their_regularizer():
