@@ -4,7 +4,8 @@ the update on it, one iteration), with the update's share and the expert's share
     python benchmarks/bench_ppo_throughput.py                       # 2 workers x 8 envs, 400 ticks: the training's
     python benchmarks/bench_ppo_throughput.py --workers 1 2 --backends process ray   # scaling (ray: see below)
 
-Methods: IFM and PureRL never call the expert (their update has no regularizer); PPF and FullReg call its
+Methods: IFM and PureRL never call the expert (their update has no regularizer; PureRL's rollout also computes its
+swing-foot and other reward terms); PPF and FullReg call its
 IK and QP on every k-th tick of each environment and only advance its gait clock on the others. A rollout
 is a whole `collect` (IPC included) after a warm-up one, with the shipped distilled policy acting; the
 update is `Ppo.update` on that rollout with the method's loss, in this process as in training (torch's
@@ -43,12 +44,12 @@ class Args:
     """Rollouts timed per case (the median is printed; the update is timed on the last)."""
 
 
-def measure(workers: int, args: Args, backend: str, label_every: int) -> dict[str, float]:
-    config = EnvConfig(terrains=("flat",), randomization=paper_randomization())
+def measure(workers: int, args: Args, backend: str, method: str, label_every: int) -> dict[str, float]:
+    config = EnvConfig(terrains=("flat",), randomization=paper_randomization(), purerl_rewards=method == "purerl")
     model = ActorCritic.from_checkpoint(load_checkpoint(DISTILLED))
     model.log_std.data.fill_(-2.0)  # the fine-tuning's exploration
     policy = deployable_checkpoint(model, config, ActionSpace())
-    ppo = Ppo(model, PpoConfig(), method_regularizer("ppf" if label_every else "ifm", label_every))
+    ppo = Ppo(model, PpoConfig(), method_regularizer(method, label_every))
     with make_vec_env(config, workers, args.envs_per_worker, with_expert=label_every > 0, backend=backend) as vec_env:
         vec_env.collect(RolloutRequest(policy, 20, seed=1, label_every=label_every, stochastic=True))
         times = []
@@ -69,11 +70,12 @@ def measure(workers: int, args: Args, backend: str, label_every: int) -> dict[st
 def main(args: Args) -> None:
     print(f"{args.envs_per_worker} envs per worker, {args.steps} ticks each; steps/s (rollout: median of {args.repeats})")
     print(f"{'method':>24} {'backend':>8} {'workers':>7} {'rollout':>8} {'end-to-end':>10} {'update':>7} {'expert':>7}")
-    methods = [("ifm / purerl (no expert)", 0)] + [(f"ppf / fullreg, 1/{k}", k) for k in args.label_every]
-    for name, label_every in methods:
+    methods = [("ifm (no expert)", "ifm", 0), ("purerl (no expert)", "purerl", 0)]
+    methods += [(f"ppf / fullreg, 1/{k}", "ppf", k) for k in args.label_every]
+    for name, method, label_every in methods:
         for backend in args.backends:
             for workers in args.workers:
-                m = measure(workers, args, backend, label_every)
+                m = measure(workers, args, backend, method, label_every)
                 print(f"{name:>24} {backend:>8} {workers:7d} {m['rollout']:8.0f} {m['end_to_end']:10.0f} "
                       f"{m['update_share']:7.0%} {m['expert_share']:7.0%}")
 
