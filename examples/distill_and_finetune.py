@@ -28,7 +28,7 @@ from learn.dagger_runner import DaggerRunner
 from learn.evaluate import evaluate, write_outputs
 from learn.export import export_onnx
 from learn.finetune import DISTILLED, FinetuneConfig, FinetuneRunner
-from learn.ppo import PAPER_MONITORS, Method
+from learn.ppo import PAPER_MONITORS, Method, PpoConfig
 from learn.storage import output_directory
 from mbc.errors import ConfigError, MbcError
 
@@ -60,6 +60,11 @@ class Args:
     start_level: int | None = None
     """Highest terrain-curriculum level an environment starts at (levels 0-9; default 5, to 14 deg, for a pre-trained
     policy, which already climbs; 0 for PureRL, which learns to stand and step first)."""
+    gamma: float | None = None
+    """PPO's discount per 200 Hz tick (default 0.99, a 0.5 s horizon, for a pre-trained policy; 0.9975, 2 s, for
+    PureRL, which must credit a fall to the steps before it: legged_gym's 0.99 at 50 Hz)."""
+    lam: float | None = None
+    """GAE's lambda per tick (default 0.95; 0.987 for PureRL: legged_gym's 0.95 at 50 Hz)."""
     seed: int = 0
     device: str = "cpu"
     """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
@@ -80,12 +85,15 @@ def main(args: Args) -> None:
     iterations = args.iterations if args.iterations is not None else {"default": FinetuneConfig.iterations,
                                                                        "paper": 10_000}[args.preset]
     finetune_dir = args.run_dir / "finetune"
-    start_level = args.start_level if args.start_level is not None else (0 if args.method == "purerl" else
+    scratch = args.method == "purerl"  # from nothing: a curriculum from level 0 and a longer horizon
+    start_level = args.start_level if args.start_level is not None else (0 if scratch else
                                                                           TerrainCurriculum.initial_max_level)
+    ppo = PpoConfig(gamma=args.gamma if args.gamma is not None else (0.9975 if scratch else PpoConfig.gamma),
+                    lam=args.lam if args.lam is not None else (0.987 if scratch else PpoConfig.lam))
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
                             mar_monitors=args.mar_monitors,
-                            curriculum=TerrainCurriculum(initial_max_level=start_level),
+                            curriculum=TerrainCurriculum(initial_max_level=start_level), ppo=ppo,
                             resume=args.resume and (finetune_dir / "training_state.pt").exists())
     if args.preset == "paper":  # 10,000 iterations of 40,000 steps: the paper's 400 M samples
         config = dataclasses.replace(config, steps_per_env=40_000 // args.workers.num_envs)

@@ -137,8 +137,9 @@ class PpoConfig:
     forgets in the first updates)."""
 
     def __post_init__(self) -> None:
-        if self.epochs < 1 or self.minibatches < 1 or not 0 < self.clip < 1 or not 0 < self.gamma <= 1:
-            raise ConfigError("need epochs, minibatches >= 1, clip in (0, 1) and gamma in (0, 1]")
+        if self.epochs < 1 or self.minibatches < 1 or not 0 < self.clip < 1 or not 0 < self.gamma <= 1 or not 0 <= self.lam <= 1:
+            raise ConfigError(f"need epochs, minibatches >= 1, clip in (0, 1), gamma in (0, 1] and lam in [0, 1]; got "
+                              f"{self.epochs}, {self.minibatches}, {self.clip}, {self.gamma}, {self.lam}")
         if not self.reward_scale > 0:
             raise ConfigError(f"reward_scale must be positive, got {self.reward_scale}")
         low, high = self.learning_rate_bounds
