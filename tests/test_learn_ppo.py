@@ -232,6 +232,19 @@ def test_a_short_run_resumes_where_it_stopped(tmp_path):
     assert state["iteration"] == 2 and state["samples"] == 3 * 2 * 60
 
 
+def test_the_shipped_purerl_training_state_resumes(tmp_path):
+    import shutil
+
+    shipped = Path(__file__).resolve().parents[1] / "policies" / "purerl_state.pt"
+    (tmp_path / "purerl").mkdir()
+    shutil.copy(shipped, tmp_path / "purerl" / "training_state.pt")
+    start = int(torch.load(shipped, weights_only=True)["iteration"]) + 1
+    runner = FinetuneRunner(_short_run(tmp_path, "purerl", start + 1, resume=True))
+    assert runner.start_iteration == start
+    runner.learn()
+    assert torch.load(tmp_path / "purerl" / "training_state.pt", weights_only=True)["iteration"] == start
+
+
 def test_a_short_purerl_run_logs_its_reward_terms(tmp_path):
     FinetuneRunner(_short_run(tmp_path, "purerl", 2)).learn()
     rows = [json.loads(line) for line in (tmp_path / "purerl" / "scalars.jsonl").read_text().splitlines()]
