@@ -27,7 +27,7 @@ from learn.curriculum import TerrainCurriculum
 from learn.dagger_runner import DaggerRunner
 from learn.evaluate import evaluate, write_outputs
 from learn.export import export_onnx
-from learn.finetune import DISTILLED, FinetuneConfig, FinetuneRunner
+from learn.finetune import DISTILLED, SCRATCH_GAMMA, SCRATCH_LAM, SCRATCH_START_LEVEL, FinetuneConfig, FinetuneRunner
 from learn.ppo import PAPER_MONITORS, Method, PpoConfig
 from learn.storage import output_directory
 from mbc.errors import ConfigError, MbcError
@@ -86,10 +86,10 @@ def main(args: Args) -> None:
                                                                        "paper": 10_000}[args.preset]
     finetune_dir = args.run_dir / "finetune"
     scratch = args.method == "purerl"  # from nothing: a curriculum from level 0 and a longer horizon
-    start_level = args.start_level if args.start_level is not None else (0 if scratch else
+    start_level = args.start_level if args.start_level is not None else (SCRATCH_START_LEVEL if scratch else
                                                                           TerrainCurriculum.initial_max_level)
-    ppo = PpoConfig(gamma=args.gamma if args.gamma is not None else (0.9975 if scratch else PpoConfig.gamma),
-                    lam=args.lam if args.lam is not None else (0.987 if scratch else PpoConfig.lam))
+    ppo = PpoConfig(gamma=args.gamma if args.gamma is not None else (SCRATCH_GAMMA if scratch else PpoConfig.gamma),
+                    lam=args.lam if args.lam is not None else (SCRATCH_LAM if scratch else PpoConfig.lam))
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
                             mar_monitors=args.mar_monitors,

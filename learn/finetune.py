@@ -33,6 +33,9 @@ from learn.vec_env import RolloutRequest, rollout_seed, vec_env_for
 from mbc.errors import ConfigError
 
 DISTILLED = Path(__file__).resolve().parents[1] / "policies" / "distilled.pt"
+SCRATCH_GAMMA, SCRATCH_LAM, SCRATCH_START_LEVEL = 0.9975, 0.987, 0
+"""PureRL's settings in the main job: legged_gym's horizons in time (its 0.99 and 0.95 at 50 Hz, per 200 Hz tick:
+2 s, where PPO's default 0.99 is 0.5 s) and the terrain curriculum from level 0 (docs/design.md, PureRL)."""
 
 
 @dataclass(frozen=True)
@@ -40,7 +43,8 @@ class FinetuneConfig:
     """A fine-tuning run."""
 
     method: Method = "ppf"
-    """ppf (MAR-weighted regularizer), fullreg (constant weight), ifm (none), purerl (none, no pre-training)."""
+    """ppf (MAR-weighted regularizer), fullreg (constant weight), ifm (none), purerl (none, no pre-training; the
+    main job gives it `SCRATCH_GAMMA`, `SCRATCH_LAM` and `SCRATCH_START_LEVEL`)."""
     run_dir: Path = Path("runs/finetune")
     seed: int = 0
     resume: bool = False

@@ -10,7 +10,7 @@ import pytest
 
 from learn.config import WorkerConfig
 from learn.evaluate import evaluate
-from learn.finetune import FinetuneConfig
+from learn.finetune import SCRATCH_GAMMA, SCRATCH_LAM, SCRATCH_START_LEVEL, FinetuneConfig
 from learn.policy import load_checkpoint
 from learn.storage import output_directory
 from mbc.errors import ConfigError
@@ -40,6 +40,26 @@ def test_the_main_job_refuses_bad_iterations_and_seeds_before_any_work(tmp_path)
         with pytest.raises(ConfigError, match=message):
             job.main(job.Args(run_dir=tmp_path / "run", **args))
     assert not (tmp_path / "run").exists()  # refused before the run directory was made
+
+
+def test_the_main_job_gives_purerl_its_from_scratch_settings_and_keeps_explicit_ones(tmp_path, monkeypatch):
+    job = _main_job()
+    configs = []
+
+    class Built(Exception):
+        pass
+
+    def runner(config):
+        configs.append(config)
+        raise Built
+
+    monkeypatch.setattr(job, "FinetuneRunner", runner)
+    for kwargs in (dict(method="purerl"), dict(method="ppf"), dict(method="purerl", gamma=0.99, start_level=3)):
+        with pytest.raises(Built):
+            job.main(job.Args(run_dir=tmp_path / "run", evaluation_seeds=0, **kwargs))
+    purerl, ppf, explicit = ((c.ppo.gamma, c.ppo.lam, c.curriculum.initial_max_level) for c in configs)
+    assert purerl == (SCRATCH_GAMMA, SCRATCH_LAM, SCRATCH_START_LEVEL) == (0.9975, 0.987, 0)
+    assert ppf == (0.99, 0.95, 5) and explicit == (0.99, SCRATCH_LAM, 3)
 
 
 def test_configs_refuse_values_outside_their_range_with_the_valid_ones():
