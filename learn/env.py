@@ -30,6 +30,7 @@ from learn.rewards import (
     RewardInputs,
     action_smoothness,
     base_orientation,
+    contact_schedule,
     cos_tilt,
     feet_air_time,
     reward_terms,
@@ -241,8 +242,11 @@ class WalkEnv:
         self._in_contact = contact.copy()
         smoothness = action_smoothness(action, *self._earlier_actions)
         self._earlier_actions = [np.asarray(action, float).copy(), self._earlier_actions[0]]
+        clock = self.builder.clock
+        scheduled = np.ones(2, bool) if clock.shifting_weight else np.arange(2) == clock.stance
         return {"feet_air_time": air_time, "action_smoothness": smoothness,
-                "swing_foot_tracking": self._swing_reference.reward(self.builder.clock, command, state.base_quat),
+                "contact_schedule": contact_schedule(contact, scheduled),
+                "swing_foot_tracking": self._swing_reference.reward(clock, command, state.base_quat),
                 "vertical_velocity": vertical_velocity(float(state.base_linvel[2])),
                 "base_orientation": base_orientation(state.base_quat)}
 

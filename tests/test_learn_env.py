@@ -177,17 +177,29 @@ def test_purerl_terms_are_reported_and_weighted_when_on():
 
     env = WalkEnv(dataclasses.replace(QUIET, purerl_rewards=True), with_expert=True)
     env.reset(seed=3)
-    swings = []
+    swings, schedules = [], []
     for _ in range(300):  # the expert walks: past the weight shift, into steps
         action, _ = env.label()
         step = env.step(action)
         assert set(PURERL_WEIGHTS) <= set(step.reward_terms)
         assert step.reward == pytest.approx(max(0.0, sum(w * step.reward_terms[k] for k, w in PURERL_WEIGHTS.items())))
         swings.append(step.reward_terms["swing_foot_tracking"])
+        schedules.append(step.reward_terms["contact_schedule"])
     assert 0.0 <= min(swings) and max(swings) <= 1.0 and np.mean(swings[-100:]) > 0.5  # the MBC follows its law
+    assert np.mean(schedules[-100:]) > 0.9  # and steps to its clock
     plain = WalkEnv(QUIET, with_expert=False)
     plain.reset(seed=3)
     assert "swing_foot_tracking" not in plain.step(np.zeros(ACTION_DIM)).reward_terms
+
+
+def test_the_contact_schedule_pays_stepping_to_the_clock_over_standing():
+    from learn.rewards import CONTACT_MISMATCH_SCORE, contact_schedule
+
+    left_stance = np.array([True, False])
+    assert contact_schedule(left_stance, left_stance) == 1.0
+    assert contact_schedule(np.array([True, True]), left_stance) == pytest.approx((1 + CONTACT_MISMATCH_SCORE) / 2)
+    assert contact_schedule(np.array([False, True]), left_stance) == CONTACT_MISMATCH_SCORE
+    assert contact_schedule(np.array([True, True]), np.array([True, True])) == 1.0  # the weight shift
 
 
 def test_purerl_reward_is_floored_so_that_falling_sooner_does_not_pay():
