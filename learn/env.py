@@ -42,6 +42,7 @@ from mbc.controller import AlipControllerConfig
 from mbc.errors import ConfigError, MbcError
 from mbc.geometry import rotate_inverse, yaw_of_quaternion
 from mbc.sim import DigitSim, DomainParams
+from mbc.timing import LEFT, RIGHT
 from mbc.types import RobotState
 from robots.digit import constants as digit
 
@@ -243,7 +244,7 @@ class WalkEnv:
         smoothness = action_smoothness(action, *self._earlier_actions)
         self._earlier_actions = [np.asarray(action, float).copy(), self._earlier_actions[0]]
         clock = self.builder.clock
-        scheduled = np.ones(2, bool) if clock.shifting_weight else np.arange(2) == clock.stance
+        scheduled = (True, True) if clock.shifting_weight else (clock.stance == LEFT, clock.stance == RIGHT)
         return {"feet_air_time": air_time, "action_smoothness": smoothness,
                 "contact_schedule": contact_schedule(contact, scheduled),
                 "swing_foot_tracking": self._swing_reference.reward(clock, command, state.base_quat),
