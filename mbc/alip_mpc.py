@@ -108,6 +108,10 @@ class AlipMpc:
         self._build()
         self._warm: np.ndarray | None = None
 
+    def reset(self) -> None:
+        """Forget the warm start: the next solve starts from the reference steps and timing."""
+        self._warm = None
+
     def _build(self) -> None:
         n = self.config.horizon_steps
         steps = ca.SX.sym("u", n, 2)

@@ -226,6 +226,9 @@ class AlipController:
         q = np.asarray(state.q, dtype=float)
         self._last_q_des = np.where(np.isfinite(q), q, digit.Q_STAND)
         self._ramp.reset()
+        self.qp.reset()
+        if self.mpc is not None:
+            self.mpc.reset()
         self.fallback_count = 0
         self._started = True
 

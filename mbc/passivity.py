@@ -227,6 +227,11 @@ class PassivityQp:
         self.config = cfg = config or PassivityConfig()
         self._damping = 2 * [float(gain) for gain in cfg.damping]  # K_D, both legs
         self._templates: dict[tuple[int, ...], _Template] = {}  # per contact set, built on first use
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the warm starts: the next solve of each contact count starts cold, as on a new
+        controller, so that an episode's ticks do not depend on the episode before."""
         self._solvers = {n: self._new_solver(n) for n in (1, 2)}
         self._initialized = {1: False, 2: False}
 
