@@ -65,6 +65,10 @@ class Args:
     PureRL, which must credit a fall to the steps before it: legged_gym's 0.99 at 50 Hz)."""
     lam: float | None = None
     """GAE's lambda per tick (default 0.95; 0.987 for PureRL: legged_gym's 0.95 at 50 Hz)."""
+    gait_clock: Literal["contact", "time"] = "contact"
+    """The observation's gait clock: 'contact', the MBC's (a step ends at the swing foot's touchdown; what
+    the distilled policy observes), or 'time' (every step lasts its duration: PureRL's option, where a stand
+    then misses the contact schedule all step long)."""
     seed: int = 0
     device: str = "cpu"
     """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
@@ -90,7 +94,8 @@ def main(args: Args) -> None:
                                                                           TerrainCurriculum.initial_max_level)
     ppo = PpoConfig(gamma=args.gamma if args.gamma is not None else (SCRATCH_GAMMA if scratch else PpoConfig.gamma),
                     lam=args.lam if args.lam is not None else (SCRATCH_LAM if scratch else PpoConfig.lam))
-    config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init,
+    env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock)
+    config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init, env=env,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
                             mar_monitors=args.mar_monitors,
                             curriculum=TerrainCurriculum(initial_max_level=start_level), ppo=ppo,

@@ -11,6 +11,11 @@ import tyro
 
 from mbc.errors import ConfigError
 
+GAIT_CLOCKS = ("contact", "time")
+"""The observation's gait clock (`learn.observation.gait_timing`): 'contact', the MBC's (a step ends when the
+swing foot touches down after phase 0.6, or at 1.4), or 'time', which ends every step at phase 1 whatever the
+contacts (the periodic phase of Humanoid-Gym and of Radosavovic et al.)."""
+
 
 def _require(condition: bool, message: str) -> None:
     if not condition:
@@ -121,6 +126,9 @@ class EnvConfig:
     randomization: Randomization = field(default_factory=Randomization)
     purerl_rewards: bool = False
     """Add PureRL's reward terms (feet air time, second-order action smoothness) to the paper's table."""
+    gait_clock: str = "contact"
+    """The observation's gait clock, one of `GAIT_CLOCKS`: 'contact' (the expert's; a distilled policy's) or
+    'time' (a step lasts its duration whatever the feet do: a stand misses the contact schedule all step long)."""
     lin_vel_tracking_sigma: float = 0.25
     """delta_xy of the linear velocity tracking reward exp(-|v - v_cmd|^2 / delta) [(m/s)^2]."""
     ang_vel_tracking_sigma: float = 0.25
@@ -131,6 +139,7 @@ class EnvConfig:
         _require(self.episode_length_s > 0, f"episode_length_s must be positive, got {self.episode_length_s}")
         _require(0 < self.tilt_limit_rad < 1.5, f"tilt_limit_rad must be in (0, 1.5), got {self.tilt_limit_rad}")
         _require(self.history_length >= 0, f"history_length must be >= 0, got {self.history_length}")
+        _require(self.gait_clock in GAIT_CLOCKS, f"unknown gait_clock {self.gait_clock!r}; choose from {GAIT_CLOCKS}")
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ import numpy as np
 from learn.action import ACTION_DIM, ActionSpace
 from learn.config import CommandSampling, EnvConfig, Randomization
 from learn.expert import Expert
-from learn.observation import ObservationBuilder
+from learn.observation import ObservationBuilder, gait_timing
 from learn.rewards import (
     PAPER_WEIGHTS,
     PURERL_REWARD_FLOOR,
@@ -104,7 +104,7 @@ class WalkEnv:
         self.set_terrain(config.terrains[index % len(config.terrains)])
         self.action_space = ActionSpace(self.sim.kp, self.sim.kd)
         self.expert = Expert(self.action_space) if with_expert else None
-        self.builder = ObservationBuilder(config.history_length)
+        self.builder = ObservationBuilder(config.history_length, gait_timing(config.gait_clock))
         self.rng = np.random.default_rng(index)
         self.forward_command_max_mps = config.commands.vx_mps[1]
         """Upper end of the forward commands drawn (the velocity curriculum widens it)."""

@@ -109,6 +109,9 @@ class FinetuneRunner:
         else:
             checkpoint = load_checkpoint(cfg.init_policy)
             check_gains(checkpoint, self.action_space.kp, self.action_space.kd, "this fine-tuning's action space")
+            if checkpoint.get("gait_clock", "contact") != env.gait_clock:
+                raise ConfigError(f"{cfg.init_policy} observes the {checkpoint.get('gait_clock', 'contact')!r} gait "
+                                  f"clock; this fine-tuning's environment has {env.gait_clock!r}")
             self.model = ActorCritic.from_checkpoint(checkpoint)
             self._fresh_normalizer = False
         with torch.no_grad():
@@ -122,6 +125,10 @@ class FinetuneRunner:
 
     def _restore(self, path: Path) -> None:
         state = torch.load(path, map_location="cpu", weights_only=True)
+        trained_on = state["policy"].get("gait_clock", "contact")
+        if trained_on != self.env_config.gait_clock:
+            raise ConfigError(f"{path} was trained on the {trained_on!r} gait clock; resume it with that clock, "
+                              f"not {self.env_config.gait_clock!r}")
         self.model.load_state_dict(state["policy"]["state_dict"])
         self.ppo.optimizer.load_state_dict(state["optimizer"])
         self.ppo.learning_rate = float(state["learning_rate"])

@@ -15,12 +15,23 @@ from dataclasses import dataclass
 import numpy as np
 
 from learn.action import ACTION_DIM
+from learn.config import GAIT_CLOCKS
+from mbc.errors import ConfigError
 from mbc.geometry import rotate_inverse
 from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig, is_standing
 from mbc.types import RobotState
 from robots.digit.constants import NUM_JOINTS
 
 GAIT_FEATURES = 4
+
+
+def gait_timing(gait_clock: str) -> TimingConfig:
+    """The clock's timing for a `learn.config.GAIT_CLOCKS` name: the MBC's, or one whose steps end at phase 1
+    exactly (earliest and latest touchdown phase both 1: contacts never end a step early or late)."""
+    if gait_clock not in GAIT_CLOCKS:
+        raise ConfigError(f"unknown gait clock {gait_clock!r}; choose from {GAIT_CLOCKS}")
+    return TimingConfig() if gait_clock == "contact" else TimingConfig(early_touchdown_phase=1.0,
+                                                                       late_touchdown_phase=1.0)
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,7 @@ from torch import nn
 
 from learn.action import ACTION_DIM, ActionSpace
 from learn.config import PolicyConfig
-from learn.observation import ObservationBuilder
+from learn.observation import ObservationBuilder, gait_timing
 from mbc.errors import ConfigError
 from mbc.types import CONTROL_PERIOD_S, Command, CommandLimits, JointCommand, RobotState
 
@@ -152,7 +152,8 @@ class PolicyController:
     def __init__(self, path: str | Path) -> None:
         checkpoint = load_checkpoint(path)
         self.model = ActorCritic.from_checkpoint(checkpoint).eval()
-        self.builder = ObservationBuilder(int(checkpoint["history_length"]))
+        self.gait_clock = str(checkpoint.get("gait_clock", "contact"))  # (written since the 'time' clock exists)
+        self.builder = ObservationBuilder(int(checkpoint["history_length"]), gait_timing(self.gait_clock))
         if self.builder.layout.size != self.model.observation_size:
             raise ConfigError(f"{path}: observation size {self.model.observation_size} does not match its layout "
                               f"({self.builder.layout.size})")

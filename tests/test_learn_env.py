@@ -218,3 +218,30 @@ def test_purerl_reward_is_floored_so_that_falling_sooner_does_not_pay():
             break
     assert step.terminated and min(sums) < 0.0  # the penalties of the collapse outweigh the tracking terms
     assert min(rewards) >= 0.0 and rewards == pytest.approx([max(0.0, x) for x in sums])
+
+
+def test_the_time_keeping_clock_ends_each_step_at_phase_one_whatever_the_feet_do():
+    """A robot standing still: the MBC's clock finds the swing foot down and ends every step at phase 0.6; the
+    'time' clock keeps the weight shift, the short first step and then 0.35 s steps."""
+    from learn.observation import gait_timing
+
+    standing = RobotState(time=0.0, base_pos=np.array([0, 0, 1.0]), base_quat=np.array([1.0, 0, 0, 0]),
+                          base_linvel=np.zeros(3), base_angvel=np.zeros(3), q=np.zeros(12), qd=np.zeros(12),
+                          contact=np.array([True, True]))
+    phases, touchdowns = {}, {}
+    for name in ("contact", "time"):
+        builder = ObservationBuilder(0, gait_timing(name))
+        builder.reset(standing)
+        state, highest = standing.copy(), -1.0
+        for _ in range(400):  # 2 s
+            state.time += 0.005
+            builder.observe(state, np.zeros(3))
+            highest = max(highest, builder.clock.phase)
+        phases[name], touchdowns[name] = highest, builder.clock.touchdowns
+    timing = gait_timing("time")
+    assert timing.early_touchdown_phase == timing.late_touchdown_phase == 1.0
+    assert phases["contact"] < 0.61 and phases["time"] == pytest.approx(1.0, abs=0.02)
+    expected = 1 + math.floor((2.0 - timing.weight_shift_s - timing.first_step_duration_s) / timing.step_duration_s + 1e-9)
+    assert touchdowns["time"] == expected and touchdowns["contact"] > expected
+    with pytest.raises(ConfigError, match="unknown gait_clock 'wall'"):
+        EnvConfig(gait_clock="wall")

@@ -81,6 +81,20 @@ def test_a_checkpoint_trained_with_other_gains_is_refused_by_simulators_and_fine
         FinetuneRunner(FinetuneConfig(init_policy=str(path), run_dir=str(tmp_path / "run")))
 
 
+def test_a_policy_runs_the_gait_clock_it_was_trained_on_and_fine_tuning_keeps_it(tmp_path):
+    from learn.finetune import FinetuneConfig, FinetuneRunner
+
+    model = ActorCritic(ObservationLayout(EnvConfig().history_length).size)
+    timed, contact = tmp_path / "timed.pt", tmp_path / "contact.pt"
+    save_torch(timed, deployable_checkpoint(model, EnvConfig(gait_clock="time"), ActionSpace()))
+    save_torch(contact, deployable_checkpoint(model, EnvConfig(), ActionSpace()))
+    assert PolicyController(timed).builder.clock.config.early_touchdown_phase == 1.0
+    assert PolicyController(contact).builder.clock.config.early_touchdown_phase == 0.6
+    assert PolicyController(SHIPPED).gait_clock == "contact"  # written before the key existed
+    with pytest.raises(ConfigError, match="observes the 'time' gait clock"):
+        FinetuneRunner(FinetuneConfig(init_policy=str(timed), run_dir=str(tmp_path / "run")))
+
+
 def test_a_policy_follows_the_commands_it_was_trained_on_turning_limit_included(tmp_path):
     """A distilled policy's limits are its teacher's: (0.8 m/s, 0, 0.8 rad/s) is turned at 0.3 / 0.8 rad/s,
     and the episode summary counts the clipped ticks, as for the MBC."""

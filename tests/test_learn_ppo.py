@@ -239,7 +239,10 @@ def test_the_shipped_purerl_training_state_resumes(tmp_path):
     (tmp_path / "purerl").mkdir()
     shutil.copy(shipped, tmp_path / "purerl" / "training_state.pt")
     start = int(torch.load(shipped, weights_only=True)["iteration"]) + 1
-    runner = FinetuneRunner(_short_run(tmp_path, "purerl", start + 1, resume=True))
+    config = _short_run(tmp_path, "purerl", start + 1, resume=True)
+    with pytest.raises(ConfigError, match="trained on the 'contact' gait clock"):
+        FinetuneRunner(dataclasses.replace(config, env=dataclasses.replace(config.env, gait_clock="time")))
+    runner = FinetuneRunner(config)
     assert runner.start_iteration == start
     runner.learn()
     assert torch.load(tmp_path / "purerl" / "training_state.pt", weights_only=True)["iteration"] == start
