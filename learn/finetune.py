@@ -26,7 +26,7 @@ from learn.config import EnvConfig, PolicyConfig, WorkerConfig, paper_randomizat
 from learn.console import append_scalars, iteration_line, number
 from learn.curriculum import TerrainCurriculum, VelocityCurriculum
 from learn.observation import ObservationLayout
-from learn.policy import ActorCritic, check_gains, learner_device, load_checkpoint
+from learn.policy import ActorCritic, check_gains, gait_clock_of, learner_device, load_checkpoint
 from learn.ppo import METHODS, PAPER_MONITORS, Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
 from learn.storage import output_directory
 from learn.vec_env import RolloutRequest, rollout_seed, vec_env_for
@@ -109,9 +109,9 @@ class FinetuneRunner:
         else:
             checkpoint = load_checkpoint(cfg.init_policy)
             check_gains(checkpoint, self.action_space.kp, self.action_space.kd, "this fine-tuning's action space")
-            if checkpoint.get("gait_clock", "contact") != env.gait_clock:
-                raise ConfigError(f"{cfg.init_policy} observes the {checkpoint.get('gait_clock', 'contact')!r} gait "
-                                  f"clock; this fine-tuning's environment has {env.gait_clock!r}")
+            if gait_clock_of(checkpoint) != env.gait_clock:
+                raise ConfigError(f"{cfg.init_policy} observes the {gait_clock_of(checkpoint)!r} gait clock; this "
+                                  f"fine-tuning's environment has {env.gait_clock!r}")
             self.model = ActorCritic.from_checkpoint(checkpoint)
             self._fresh_normalizer = False
         with torch.no_grad():
@@ -125,7 +125,7 @@ class FinetuneRunner:
 
     def _restore(self, path: Path) -> None:
         state = torch.load(path, map_location="cpu", weights_only=True)
-        trained_on = state["policy"].get("gait_clock", "contact")
+        trained_on = gait_clock_of(state["policy"])
         if trained_on != self.env_config.gait_clock:
             raise ConfigError(f"{path} was trained on the {trained_on!r} gait clock; resume it with that clock, "
                               f"not {self.env_config.gait_clock!r}")

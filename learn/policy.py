@@ -140,6 +140,12 @@ def check_gains(checkpoint: dict, kp: np.ndarray, kd: np.ndarray, where: str) ->
                           f"{np.round(kd, 1).tolist()}; retrain it on these gains (robots/digit/constants.py KP, KD)")
 
 
+def gait_clock_of(checkpoint: dict) -> str:
+    """The gait clock a checkpoint's policy observes (`learn.config.GAIT_CLOCKS`); 'contact' for checkpoints
+    written before the key existed."""
+    return str(checkpoint.get("gait_clock", "contact"))
+
+
 class PolicyController:
     """A trained policy as a `Controller`: its own gait clock, joint history and previous action.
 
@@ -152,7 +158,7 @@ class PolicyController:
     def __init__(self, path: str | Path) -> None:
         checkpoint = load_checkpoint(path)
         self.model = ActorCritic.from_checkpoint(checkpoint).eval()
-        self.gait_clock = str(checkpoint.get("gait_clock", "contact"))  # (written since the 'time' clock exists)
+        self.gait_clock = gait_clock_of(checkpoint)
         self.builder = ObservationBuilder(int(checkpoint["history_length"]), gait_timing(self.gait_clock))
         if self.builder.layout.size != self.model.observation_size:
             raise ConfigError(f"{path}: observation size {self.model.observation_size} does not match its layout "

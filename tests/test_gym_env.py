@@ -42,8 +42,8 @@ def test_seeded_resets_repeat_and_bad_arguments_are_refused():
 
 
 def test_the_experts_label_after_a_seeded_reset_does_not_depend_on_the_episode_before():
-    """Bit for bit: the IK and QP solvers' warm starts are forgotten on reset (they left ~4e-6 rad
-    differences, which gymnasium's step-determinism check failed on some CPUs)."""
+    """Bit for bit: the passivity QP's and the ALIP MPC's warm starts are forgotten on reset (kept, they left
+    ~4e-6 rad differences, which gymnasium's step-determinism check failed on some CPUs)."""
     env = gym.make(ENV_ID, with_expert=True)
     action = np.linspace(-0.5, 0.5, 24, dtype=np.float32)
     labels = []
