@@ -107,7 +107,9 @@ class WalkEnv:
         self.builder = ObservationBuilder(config.history_length, gait_timing(config.gait_clock))
         self.rng = np.random.default_rng(index)
         self.forward_command_max_mps = config.commands.vx_mps[1]
-        """Upper end of the forward commands drawn (the velocity curriculum widens it)."""
+        """Upper end of the forward commands of `config.commands` (the velocity curriculum widens it)."""
+        self.command_sampling = config.commands
+        """How this environment draws its commands (a terrain curriculum gives inclines their own)."""
         self._noise_scale = self._observation_noise_scale()
         self._velocity = np.zeros(6)
         self.state: RobotState | None = None
@@ -146,7 +148,7 @@ class WalkEnv:
         self.episode_start_s = self.state.time
         self.episode_start_xy = self.state.base_pos[:2].copy()
         self.command = self._sample_command()
-        self._next_command_s = rng.uniform(*cfg.commands.resample_interval_s)
+        self._next_command_s = rng.uniform(*self.command_sampling.resample_interval_s)
         self._air_time_s, self._in_contact = np.zeros(2), self.state.contact.copy()
         self._earlier_actions = [np.zeros(ACTION_DIM), np.zeros(ACTION_DIM)]
         if self._swing_reference is not None:
@@ -161,9 +163,9 @@ class WalkEnv:
         return self.observation
 
     def _sample_command(self) -> np.ndarray:
-        command = sample_command(self.rng, self.config.commands)
+        command = sample_command(self.rng, self.command_sampling)
         high = self.config.commands.vx_mps[1]
-        if command[0] > 0 and high > 0:  # forward commands stretched to the curriculum's current end
+        if command[0] > 0 and high > 0:  # forward commands stretched as the task's to the curriculum's current end
             command[0] *= self.forward_command_max_mps / high
         return command
 
@@ -224,7 +226,7 @@ class WalkEnv:
         truncated = not terminated and (off_terrain or self.episode_time_s >= cfg.episode_length_s - 1e-9)
         if self.episode_time_s >= self._next_command_s:
             self.command = self._sample_command()
-            self._next_command_s += self.rng.uniform(*cfg.commands.resample_interval_s)
+            self._next_command_s += self.rng.uniform(*self.command_sampling.resample_interval_s)
         self.builder.record_action(action)
         self.observation = self._observe()  # (the gait clock advances to the new state)
         if cfg.purerl_rewards:  # of this tick's command, at the new state

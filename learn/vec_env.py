@@ -135,6 +135,7 @@ class EnvGroup:
         self._level_rngs = [np.random.default_rng([seed, index, CURRICULUM_STREAM]) for index in self.indices]
         for k, (env, rng) in enumerate(zip(self.envs, self._level_rngs)):
             self.levels[k] = self.curriculum.initial_level(rng)
+            env.command_sampling = self.curriculum.commands(self._kind(k), env.config.commands)
             env.set_terrain(self.curriculum.spec(self._kind(k), self.levels[k]))
 
     def _start(self, k: int) -> None:

@@ -5,9 +5,11 @@ import numpy as np
 import pytest
 
 from learn.config import EnvConfig, PushSampling
-from learn.curriculum import TerrainCurriculum
+from learn.curriculum import INCLINE_KINDS, TerrainCurriculum
+from learn.env import parse_terrain
 from learn.vec_env import InProcessVecEnv, RolloutRequest
 from mbc.errors import ConfigError
+from mbc.sim.terrain import START_CLEARANCE_M
 
 
 def test_initial_levels_cover_zero_to_the_initial_maximum():
@@ -47,3 +49,29 @@ def test_env_group_starts_its_terrains_at_the_drawn_levels_per_seed():
     vec_env.collect(RolloutRequest(None, steps=1, seed=0, label_every=1, beta=1.0))
     assert vec_env.group.levels == drawn[0]  # the same seed starts the same levels
     assert drawn[0] != drawn[1]
+
+
+def test_inclines_start_at_the_clearance_and_outlast_an_episode():
+    episode_s = EnvConfig().episode_length_s
+    for kind in INCLINE_KINDS:
+        for level in (0, 9):
+            name, params = parse_terrain(TerrainCurriculum().spec(kind, level))
+            assert name == "slope" and params["run_up_m"] == START_CLEARANCE_M
+            assert params["length_m"] >= 1.0 * episode_s  # 1 m/s for a whole episode stays on the incline
+
+
+def test_incline_environments_draw_the_incline_commands_and_the_others_the_tasks():
+    config = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0))
+    curriculum = TerrainCurriculum(kinds=("flat", "uphill", "downhill"), levels=10, initial_max_level=9)
+    vec_env = InProcessVecEnv(config, 3, curriculum=curriculum)
+    commands = []
+    for seed in range(12):
+        vec_env.collect(RolloutRequest(None, steps=1, seed=seed, label_every=1, beta=1.0))
+        commands.append([env.command.copy() for env in vec_env.group.envs])
+    flat, *inclines = vec_env.group.envs
+    assert flat.command_sampling == config.commands
+    assert all(env.command_sampling == curriculum.incline_commands for env in inclines)
+    incline_vx = np.array([c[k][0] for c in commands for k in (1, 2)])
+    low, high = curriculum.incline_commands.vx_mps
+    assert np.all((incline_vx == 0) | ((incline_vx >= low) & (incline_vx <= high)))  # never backward
+    assert np.any(np.array([c[0][0] for c in commands]) < 0)  # flat ground still walks backward
