@@ -22,7 +22,7 @@ mean linear-velocity tracking reward of that iteration exceeds `threshold`, up t
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -63,9 +63,9 @@ class TerrainCurriculum:
     policy's steepest training incline). Starting every environment at level 0 kept a fine-tuning on 4-8 deg for
     its whole budget (20 s episodes end about once per 10 iterations of 2 s, so the levels barely moved) and it
     forgot the steeper climbs it started with."""
-    incline_commands: CommandSampling = CommandSampling(
+    incline_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
         vx_mps=(0.1, 0.8), vy_mps=(-0.2, 0.2), yaw_rate_radps=(-0.2, 0.2), standing_probability=0.1,
-        lateral_probability=0.2, yaw_probability=0.2)
+        lateral_probability=0.2, yaw_probability=0.2))
     """Commands of the incline environments (forward ones stretched by the velocity curriculum as on flat
     ground). The flat-ground commands kept a fine-tuning off its inclines: walking backward or turned
     away from the fall line most of the time, 5 M steps of PPF forgot the 12-16 deg climbs it started
