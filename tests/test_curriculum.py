@@ -51,13 +51,14 @@ def test_env_group_starts_its_terrains_at_the_drawn_levels_per_seed():
     assert drawn[0] != drawn[1]
 
 
-def test_inclines_start_at_the_clearance_and_outlast_an_episode():
-    episode_s = EnvConfig().episode_length_s
+def test_inclines_have_their_foot_and_crest_within_an_episode_and_room_to_promote():
+    episode_s, curriculum = EnvConfig().episode_length_s, TerrainCurriculum()
     for kind in INCLINE_KINDS:
         for level in (0, 9):
-            name, params = parse_terrain(TerrainCurriculum().spec(kind, level))
+            name, params = parse_terrain(curriculum.spec(kind, level))
             assert name == "slope" and params["run_up_m"] == START_CLEARANCE_M
-            assert params["length_m"] >= 1.0 * episode_s  # 1 m/s for a whole episode stays on the incline
+            assert params["run_up_m"] + params["length_m"] <= 0.45 * episode_s  # the crest, at a climbing speed
+            assert params["length_m"] >= curriculum.promote_m  # a promotion can be earned on the incline alone
 
 
 def test_incline_environments_draw_the_incline_commands_and_the_others_the_tasks():
