@@ -125,6 +125,9 @@ class EnvGroup:
         self._rngs: list[np.random.Generator] | None = None
         self._level_rngs: list[np.random.Generator] = []
         self._ticks = [0] * len(indices)
+        if curriculum is not None:  # an environment's kind, so its commands, is fixed by its index
+            for k, env in enumerate(self.envs):
+                env.command_sampling = curriculum.commands(self._kind(k), config.commands)
         torch.set_num_threads(1)  # parallelism comes from the workers
 
     def _kind(self, k: int) -> str:
@@ -135,7 +138,6 @@ class EnvGroup:
         self._level_rngs = [np.random.default_rng([seed, index, CURRICULUM_STREAM]) for index in self.indices]
         for k, (env, rng) in enumerate(zip(self.envs, self._level_rngs)):
             self.levels[k] = self.curriculum.initial_level(rng)
-            env.command_sampling = self.curriculum.commands(self._kind(k), env.config.commands)
             env.set_terrain(self.curriculum.spec(self._kind(k), self.levels[k]))
 
     def _start(self, k: int) -> None:
