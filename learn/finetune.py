@@ -200,8 +200,11 @@ class FinetuneRunner:
                     "rollout/samples_per_s": rollout.samples / collect_s, "time/collect_s": collect_s, "time/update_s": update_s,
                     "time/steps_per_s": rollout.samples / (collect_s + update_s),
                     "curriculum/forward_max_mps": self.forward_max, "samples_total": float(self.samples)}
-        for kind in sorted({e["kind"] for e in episodes if "kind" in e}):  # the levels of the episodes that ended
-            scalars[f"curriculum/level_{kind}"] = float(np.mean([e["level"] for e in episodes if e.get("kind") == kind]))
+        for kind in sorted({e["kind"] for e in episodes if "kind" in e}):  # the episodes that ended, per terrain kind
+            ended = [e for e in episodes if e.get("kind") == kind]
+            scalars[f"curriculum/level_{kind}"] = float(np.mean([e["level"] for e in ended]))
+            scalars[f"rollout/falls_{kind}"] = float(sum(e["fell"] for e in ended))
+            scalars[f"rollout/episodes_{kind}"] = float(len(ended))
         return scalars
 
     def _checkpoint(self, iteration: int) -> None:
