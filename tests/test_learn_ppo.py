@@ -313,3 +313,17 @@ def test_the_learner_device_is_chosen_clearly_and_checkpoints_stay_on_the_cpu(tm
     device = torch.device("cuda" if torch.cuda.is_available() else "cpu")
     Ppo(model, PpoConfig(), method_regularizer("ifm"), device=device)
     assert {tensor.device.type for tensor in model.checkpoint()["state_dict"].values()} == {"cpu"}
+
+
+def test_the_iteration_scalars_count_falls_and_levels_per_terrain_kind():
+    from types import SimpleNamespace
+
+    episodes = [{"kind": "uphill", "level": 3, "fell": True}, {"kind": "uphill", "level": 5, "fell": False},
+                {"kind": "stairs", "level": 2, "fell": True}]
+    rollout = SimpleNamespace(episodes=episodes, reward_terms={"lin_vel_tracking": 0.5}, rewards=np.zeros(4), samples=4)
+    scalars = FinetuneRunner._scalars(SimpleNamespace(forward_max=1.0, samples=4), rollout, {}, 1.0, 1.0)
+    assert (scalars["rollout/falls"], scalars["rollout/episodes"]) == (2.0, 3.0)
+    uphill = ("rollout/falls_uphill", "rollout/episodes_uphill", "curriculum/level_uphill")
+    assert [scalars[name] for name in uphill] == [1.0, 2.0, 4.0]
+    assert (scalars["rollout/falls_stairs"], scalars["rollout/episodes_stairs"]) == (1.0, 1.0)
+    assert "rollout/falls_flat" not in scalars
