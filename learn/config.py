@@ -46,6 +46,8 @@ class CommandSampling:
     while turning), on 0.05-0.1 with either zeroed (docs/design.md, "combined commands"); 0.6 and 0.6: 36%."""
     resample_interval_s: tuple[float, float] = (2.5, 6.0)
     """A new command is drawn after a time uniform in this range [s]."""
+    widened: bool = True
+    """Whether the velocity curriculum widens the forward commands (scaling them as it does the task's range)."""
 
     def __post_init__(self) -> None:
         for name in ("vx_mps", "vy_mps", "yaw_rate_radps", "resample_interval_s"):

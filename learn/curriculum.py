@@ -10,11 +10,11 @@ so that every level stays in the batch. Level k of L has difficulty d = k / (L -
     uneven    amplitude 1 + 4 d cm         stairs    risers 2 + 10 d cm
 
 An incline (uphill, downhill) begins at the start's flat clearance and runs `INCLINE_LENGTH_M`, and its
-environments draw `TerrainCurriculum.incline_commands`: mostly forward, little turning, so that they
-spend their episodes on the incline walking along its fall line. With the evaluation's geometry (a 2 m
-run-up, a 5 m incline) and the flat-ground commands (a third backward, a third turning), a robot that
-tracked every command would have climbed 18% of its time on an uphill environment; with this geometry
-and these commands, 59%, and 48-81% of its episodes reach the crest (docs/design.md, "climbs kept").
+environments draw their own commands (`TerrainCurriculum.uphill_commands`, `downhill_commands`): forward,
+at speeds an incline allows, little turning, so that they spend their episodes walking its fall line. A robot
+that tracked them exactly (a kinematic count) would climb 54-62% of an uphill episode and reach the crest in
+54-82% of them, descend 63-70% of a downhill one and reach its foot in 60-80%; under the evaluation's geometry
+and the flat-ground commands, 18% climbing (docs/design.md, "climbs kept", "inclines at speeds they allow").
 
 Velocity: every `every_iterations`, the upper end of the forward command grows by `step_mps` if the
 mean linear-velocity tracking reward of that iteration exceeds `threshold`, up to `max_mps`.
@@ -32,9 +32,10 @@ from mbc.sim.terrain import START_CLEARANCE_M
 
 TERRAIN_KINDS = ("flat", "uphill", "downhill", "uneven", "stairs")
 INCLINE_KINDS = ("uphill", "downhill")
-INCLINE_LENGTH_M = 8.0
-"""Horizontal length of a curriculum incline [m]: its crest (the turn onto the plateau, where a 20 m incline's
-policy fell in evaluation) is reached within a 20 s episode at 0.45 m/s, and four metres of promotion are climbed."""
+INCLINE_LENGTH_M = 5.0
+"""Horizontal length of a curriculum incline [m] (the evaluation's): at the inclines' commands its end (an
+uphill's crest, where a 20 m incline's policy fell in evaluation; a downhill's foot) is reached in 54-82% of the
+20 s episodes, and four metres of promotion fit on it."""
 
 
 def terrain_spec(kind: str, difficulty: float) -> str:
@@ -64,14 +65,19 @@ class TerrainCurriculum:
     policy's steepest training incline). Starting every environment at level 0 kept a fine-tuning on 4-8 deg for
     its whole budget (20 s episodes end about once per 10 iterations of 2 s, so the levels barely moved) and it
     forgot the steeper climbs it started with."""
-    incline_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
+    uphill_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
         vx_mps=(0.1, 0.8), vy_mps=(-0.2, 0.2), yaw_rate_radps=(-0.2, 0.2), standing_probability=0.1,
-        lateral_probability=0.2, yaw_probability=0.2))
-    """Commands of the incline environments (forward ones stretched by the velocity curriculum as on flat
-    ground). The flat-ground commands kept a fine-tuning off its inclines: walking backward or turned
-    away from the fall line most of the time, 5 M steps of PPF forgot the 12-16 deg climbs it started
-    with (docs/evaluation.md, "PPF at 5 M steps")."""
-
+        lateral_probability=0.2, yaw_probability=0.2, widened=False))
+    """Commands of the uphill environments. The flat-ground commands kept a fine-tuning off its inclines:
+    walking backward or turned away from the fall line most of the time, 5 M steps of PPF forgot the 12-16 deg
+    climbs it started with (docs/evaluation.md, "PPF at 5 M steps"). Not widened by the velocity curriculum:
+    widened to 1.2 m/s, 91% of the uphill episodes of a fine-tuning fell (docs/design.md, "inclines at speeds
+    they allow")."""
+    downhill_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
+        vx_mps=(0.3, 0.5), vy_mps=(-0.2, 0.2), yaw_rate_radps=(-0.2, 0.2), standing_probability=0.1,
+        lateral_probability=0.2, yaw_probability=0.2, widened=False))
+    """Commands of the downhill environments, slower: over the crest onto a 10 deg descent at 0.65 m/s the MBC
+    and the policies fall on every start (at 0.5 none)."""
     def __post_init__(self) -> None:
         for kind in self.kinds:
             terrain_spec(kind, 0.0)
@@ -85,7 +91,7 @@ class TerrainCurriculum:
 
     def commands(self, kind: str, flat_ground: CommandSampling) -> CommandSampling:
         """The command sampling of an environment of `kind` (`flat_ground`: the task's own, off the inclines)."""
-        return self.incline_commands if kind in INCLINE_KINDS else flat_ground
+        return {"uphill": self.uphill_commands, "downhill": self.downhill_commands}.get(kind, flat_ground)
 
     def initial_level(self, rng: np.random.Generator) -> int:
         """A starting level, uniform over 0 .. `initial_max_level`."""

@@ -165,7 +165,7 @@ class WalkEnv:
     def _sample_command(self) -> np.ndarray:
         command = sample_command(self.rng, self.command_sampling)
         high = self.config.commands.vx_mps[1]
-        if command[0] > 0 and high > 0:  # forward commands widened as the task's range is by the velocity curriculum
+        if self.command_sampling.widened and command[0] > 0 and high > 0:  # as the task's range by the velocity curriculum
             command[0] *= self.forward_command_max_mps / high
         return command
 

@@ -61,18 +61,23 @@ def test_inclines_have_their_foot_and_crest_within_an_episode_and_room_to_promot
             assert params["length_m"] >= curriculum.promote_m  # a promotion can be earned on the incline alone
 
 
-def test_incline_environments_draw_the_incline_commands_and_the_others_the_tasks():
+def test_incline_environments_draw_their_own_commands_and_the_others_the_tasks():
     config = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0))
     curriculum = TerrainCurriculum(kinds=("flat", "uphill", "downhill"), levels=10, initial_max_level=9)
     vec_env = InProcessVecEnv(config, 3, curriculum=curriculum)
+    widening = 2.0  # the velocity curriculum at twice the task's forward range
     commands = []
     for seed in range(12):
-        vec_env.collect(RolloutRequest(None, steps=1, seed=seed, label_every=1, beta=1.0))
+        vec_env.collect(RolloutRequest(None, steps=1, seed=seed, label_every=1, beta=1.0,
+                                       forward_command_max_mps=widening * config.commands.vx_mps[1]))
         commands.append([env.command.copy() for env in vec_env.group.envs])
-    flat, *inclines = vec_env.group.envs
+    flat, uphill, downhill = vec_env.group.envs
     assert flat.command_sampling == config.commands
-    assert all(env.command_sampling == curriculum.incline_commands for env in inclines)
-    incline_vx = np.array([c[k][0] for c in commands for k in (1, 2)])
-    low, high = curriculum.incline_commands.vx_mps
-    assert np.all((incline_vx == 0) | ((incline_vx >= low) & (incline_vx <= high)))  # never backward
-    assert np.any(np.array([c[0][0] for c in commands]) < 0)  # flat ground still walks backward
+    assert (uphill.command_sampling, downhill.command_sampling) == (curriculum.uphill_commands, curriculum.downhill_commands)
+    for k, sampling in ((1, curriculum.uphill_commands), (2, curriculum.downhill_commands)):
+        vx = np.array([c[k][0] for c in commands])
+        low, high = np.array(sampling.vx_mps) * (widening if sampling.widened else 1.0)
+        assert np.all((vx == 0) | ((vx >= low - 1e-12) & (vx <= high + 1e-12)))  # never backward
+    assert not (curriculum.uphill_commands.widened or curriculum.downhill_commands.widened)
+    flat_vx = np.array([c[0][0] for c in commands])
+    assert np.any(flat_vx < 0) and np.any(flat_vx > config.commands.vx_mps[1])  # flat ground: backward, and widened
