@@ -31,6 +31,14 @@ def test_promotion_demotion_and_the_last_level_sent_to_a_random_one():
     assert after_last == {0, 1, 2, 3}
 
 
+def test_a_fall_a_metre_past_an_incline_edge_demotes_and_one_near_its_end_keeps_the_level():
+    curriculum, rng = TerrainCurriculum(), np.random.default_rng(0)
+    _, params = parse_terrain(curriculum.spec("downhill", 5))
+    edge_m, end_m = params["run_up_m"], params["run_up_m"] + params["length_m"]
+    assert curriculum.next_level(5, edge_m + 1.0, fell=True, rng=rng) == 4
+    assert curriculum.next_level(5, end_m - 1.0, fell=True, rng=rng) == 5
+
+
 def test_bad_initial_level_refused():
     with pytest.raises(ConfigError, match="initial_max_level"):
         TerrainCurriculum(levels=4, initial_max_level=4)
