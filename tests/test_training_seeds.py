@@ -4,6 +4,7 @@ import math
 
 import pytest
 
+from learn.evaluate import controller_labels
 from learn.evaluate.__main__ import main
 from learn.evaluate.results import Results
 from learn.evaluate.training_seeds import parse_groups, seed_rows, seed_table, t_interval
@@ -43,3 +44,31 @@ def test_each_training_seed_counts_once_whatever_its_evaluation_seeds():
     assert rows["b"]["training_seeds"] == 1 and math.isnan(rows["b"]["success_ci"])
     table = seed_table(results, {"a": ["a0", "a1"], "b": ["b0"]})
     assert "| a (n=2) | b (n=1) |" in table and "| uphill_14 (success share; speed error [% of 0.5 m/s]) | 0.62 +- " in table
+
+
+def _part(paths, protocol="uphill_14"):
+    return Results([{"controller": "policy", "path": path, "protocol": protocol, "seed": seed, "shift": "nominal",
+                     "success": seed == 0, "fell": seed != 0, "metric": math.nan if seed else 12.5}
+                    for path in paths for seed in (0, 1)])
+
+
+def test_results_evaluated_apart_merge_into_one_table(tmp_path):
+    first, second = _part(["runs/a_s0/policy.pt"]), _part(["runs/a_s1/policy.pt", "runs/b_s0/policy.pt"])
+    back = Results.from_json(first.to_json())  # NaN goes out as null and comes back as NaN
+    assert math.isnan(back.raw[1]["metric"]) and back.table() == first.table()
+    merged = Results.merged([back, second], controller_labels)
+    assert [r["controller"] for r in merged.raw[::2]] == ["runs/a_s0/policy", "runs/a_s1/policy", "runs/b_s0/policy"]
+    with pytest.raises(ConfigError, match="give each job once"):
+        Results.merged([first, _part(["runs/a_s0/policy.pt"])], controller_labels)
+    files = []
+    for k, part in enumerate((first, second)):
+        files.append(tmp_path / f"results_{k}.json")
+        files[-1].write_text(part.to_json())
+    groups = ["a=runs/a_s0/policy.pt,runs/a_s1/policy.pt", "b=runs/b_s0/policy.pt"]
+    assert main(["--from-results", *map(str, files), "--groups", *groups, "--out", str(tmp_path / "all")]) == 0
+    table = (tmp_path / "all" / "training_seeds.md").read_text()
+    assert "| a (n=2) | b (n=1) |" in table
+    assert "| uphill_14 (success share; speed error [% of 0.5 m/s]) | 0.5 +- 0; 12.5 +- 0 | 0.5; 12.5 |" in table
+    assert main(["--from-results", str(files[0]), "--groups", "b=runs/b_s0/policy.pt"]) == 2  # not in that file
+    (tmp_path / "bad.json").write_text("{}")
+    assert main(["--from-results", str(tmp_path / "bad.json")]) == 2

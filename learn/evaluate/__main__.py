@@ -6,8 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from learn.evaluate import DEFAULT_PROTOCOLS, SHIFTS, evaluate, write_outputs
+from learn.evaluate import DEFAULT_PROTOCOLS, SHIFTS, controller_labels, evaluate, write_outputs
 from learn.evaluate.protocols import __doc__ as PROTOCOLS_DOC
+from learn.evaluate.results import Results
 from learn.evaluate.training_seeds import parse_groups, seed_table
 from learn.storage import output_directory
 from mbc.errors import ConfigError
@@ -32,15 +33,22 @@ def main(argv: list[str] | None = None) -> int:
                              "seed, evaluated as --controllers; adds the table over training seeds (training_seeds.md)")
     parser.add_argument("--ray-address", default=None,
                         help="the Ray cluster to join with --backend ray ('auto' on one of its nodes; docs/cluster.md)")
+    parser.add_argument("--from-results", nargs="+", type=Path, default=[], metavar="RESULTS_JSON",
+                        help="run nothing: the tables of earlier runs' results.json files together (each training "
+                             "seed evaluated as its run finished, say); --groups then names paths evaluated there")
     args = parser.parse_args(argv)
     try:
         if args.out is not None:
             output_directory(args.out, "--out")  # before the work, not after it
         groups = parse_groups(args.groups)
-        named = args.controllers if args.controllers is not None else ([] if groups else ["mbc"])
-        controllers = list(dict.fromkeys(named + [p for paths in groups.values() for p in paths]))
-        results = evaluate(controllers, args.protocols, args.seeds, args.workers, args.shifts, progress=True,
-                           backend=args.backend, ray_address=args.ray_address)
+        if args.from_results:
+            results = _load(args.from_results, groups)
+            args.shifts = list(dict.fromkeys(r["shift"] for r in results.raw))
+        else:
+            named = args.controllers if args.controllers is not None else ([] if groups else ["mbc"])
+            controllers = list(dict.fromkeys(named + [p for paths in groups.values() for p in paths]))
+            results = evaluate(controllers, args.protocols, args.seeds, args.workers, args.shifts, progress=True,
+                               backend=args.backend, ray_address=args.ray_address)
     except ConfigError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -57,6 +65,22 @@ def main(argv: list[str] | None = None) -> int:
             written.append(path)
         print(f"\nwrote {len(written)} files to {args.out}")
     return 0
+
+
+def _load(files: list[Path], groups: dict[str, list[str]]) -> Results:
+    """The merged results of `files`, every path of `groups` among their controllers."""
+    parts = []
+    for file in files:
+        try:
+            parts.append(Results.from_json(file.read_text()))
+        except (OSError, ValueError, KeyError) as error:
+            raise ConfigError(f"{file} is not a results.json of learn.evaluate ({error})") from error
+    results = Results.merged(parts, controller_labels)
+    evaluated = {r["path"] for r in results.raw}
+    missing = [p for paths in groups.values() for p in paths if p not in evaluated]
+    if missing:
+        raise ConfigError(f"not evaluated in {[str(f) for f in files]}: {missing}")
+    return results
 
 
 if __name__ == "__main__":

@@ -8,12 +8,14 @@ import csv
 import io
 import json
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
 from learn.evaluate.gait import SCALARS
 from learn.evaluate.metrics import mean_ci95
 from learn.evaluate.protocols import parse_protocol
+from mbc.errors import ConfigError
 
 FIGURES: dict[str, list[tuple[str, str]]] = {
     "flat": [("commands tracked", "metric")],
@@ -112,6 +114,31 @@ class Results:
     def to_json(self) -> str:
         """Every raw figure with its seed and shift, and the aggregated rows (NaN written as null)."""
         return json.dumps(_finite({"raw": self.raw, "rows": self.rows}), indent=1)
+
+    @classmethod
+    def from_json(cls, text: str) -> Results:
+        """The raw figures of `to_json`'s text (a top-level null read back as NaN); the rows are recomputed."""
+        raw = json.loads(text)["raw"]
+        return cls([{k: math.nan if v is None else v for k, v in r.items()} for r in raw])
+
+    @classmethod
+    def merged(cls, parts: Sequence[Results], labels: Callable[[list[str]], dict[str, str]]) -> Results:
+        """One `Results` of evaluations run apart (each training seed as its run finished, say): every job once,
+        controllers relabelled over all of them by `labels` (paths -> labels), since two runs may each have
+        called a different `.../policy.pt` 'policy'. A job evaluated in two parts is refused: which to keep
+        would be a choice the tables hide."""
+        raw, seen = [], {}
+        for k, part in enumerate(parts):
+            for r in part.raw:
+                job = (r["path"], r["protocol"], r["seed"], r["shift"])
+                if job in seen:
+                    raise ConfigError(f"{job} is in results {seen[job]} and {k}: give each job once")
+                seen[job] = k
+                raw.append(dict(r))
+        names = labels(list(dict.fromkeys(r["path"] for r in raw)))
+        for r in raw:
+            r["controller"] = names[r["path"]]
+        return cls(raw)
 
 
 def _mean_ci(mean: float, ci: float) -> str:
