@@ -264,3 +264,28 @@ def test_main_job_in_miniature_fine_tunes_and_exports_onnx_that_agrees_with_torc
     onnx_actions = session.run(None, {"observation": observations})[0]
     torch_actions = model.action_mean(torch.as_tensor(observations)).detach().numpy()
     np.testing.assert_allclose(onnx_actions, torch_actions, atol=1e-4)
+
+
+class _VeeringMbc:
+    """The MBC given a yaw rate of 0.2 rad/s more than it is asked for: a walker that turns off its heading."""
+
+    def __init__(self) -> None:
+        from mbc.controller import AlipController
+
+        self.inner = AlipController.for_digit()
+
+    def __getattr__(self, name):
+        return getattr(self.inner, name)
+
+    def act(self, state, command):
+        return self.inner.act(state, Command(command.vx, command.vy, command.yaw_rate + 0.2))
+
+
+def test_incline_reports_heading_drift_and_its_held_variant_steers_up_the_fall_line():
+    from learn.evaluate.protocols import _RUNNERS, parse_protocol
+
+    assert parse_protocol("uphill_hold_8") == ("uphill_hold", 8.0) and parse_protocol("downhill_hold_5")[0] == "downhill_hold"
+    free = _RUNNERS["uphill"](_VeeringMbc(), 8.0, 0, get_shift("nominal"))
+    held = _RUNNERS["uphill_hold"](_VeeringMbc(), 8.0, 0, get_shift("nominal"))
+    assert free["heading_drift_deg"] > 45.0  # 0.2 rad/s for the 10-odd seconds of the run-up and climb
+    assert held["success"] and held["heading_drift_deg"] < 20.0  # w = -yaw balances the 0.2 rad/s bias at 11 deg

@@ -56,10 +56,13 @@ def test_results_evaluated_apart_merge_into_one_table(tmp_path):
     first, second = _part(["runs/a_s0/policy.pt"]), _part(["runs/a_s1/policy.pt", "runs/b_s0/policy.pt"])
     back = Results.from_json(first.to_json())  # NaN goes out as null and comes back as NaN
     assert math.isnan(back.raw[1]["metric"]) and back.table() == first.table()
-    merged = Results.merged([back, second], controller_labels)
+    merged, replaced = Results.merged([back, second], controller_labels)
     assert [r["controller"] for r in merged.raw[::2]] == ["runs/a_s0/policy", "runs/a_s1/policy", "runs/b_s0/policy"]
-    with pytest.raises(ConfigError, match="give each job once"):
-        Results.merged([first, _part(["runs/a_s0/policy.pt"])], controller_labels)
+    assert replaced == 0
+    again = _part(["runs/a_s0/policy.pt"])
+    again.raw[0]["metric"] = 7.0  # re-evaluated: the later file's figures stand
+    merged, replaced = Results.merged([first, again], controller_labels)
+    assert replaced == 2 and len(merged.raw) == 2 and merged.raw[0]["metric"] == 7.0
     files = []
     for k, part in enumerate((first, second)):
         files.append(tmp_path / f"results_{k}.json")

@@ -35,7 +35,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="the Ray cluster to join with --backend ray ('auto' on one of its nodes; docs/cluster.md)")
     parser.add_argument("--from-results", nargs="+", type=Path, default=[], metavar="RESULTS_JSON",
                         help="run nothing: the tables of earlier runs' results.json files together (each training "
-                             "seed evaluated as its run finished, say); --groups then names paths evaluated there")
+                             "seed evaluated as its run finished, say; a job in several files is the last one's); "
+                             "--groups then names paths evaluated there")
     args = parser.parse_args(argv)
     try:
         if args.out is not None:
@@ -75,7 +76,9 @@ def _load(files: list[Path], groups: dict[str, list[str]]) -> Results:
             parts.append(Results.from_json(file.read_text()))
         except (OSError, ValueError, KeyError) as error:
             raise ConfigError(f"{file} is not a results.json of learn.evaluate ({error})") from error
-    results = Results.merged(parts, controller_labels)
+    results, replaced = Results.merged(parts, controller_labels)
+    if replaced:
+        print(f"{replaced} jobs are in several of {[str(f) for f in files]}: each one's figures are the last file's")
     evaluated = {r["path"] for r in results.raw}
     missing = [p for paths in groups.values() for p in paths if p not in evaluated]
     if missing:

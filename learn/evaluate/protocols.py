@@ -8,8 +8,11 @@ Protocol names (parametric ones take a number after the last underscore); what r
 * `course_slope[_L]`, `course_uneven[_L]`, `course_mixed[_L]` (or `course[_L]`): 0.6 m/s with heading hold through L levels
   (default 8) of growing difficulty (slopes up and down to 20 deg, bumps to 6 cm), 130 s for 8 levels;
   every level passed; levels passed, time to the end.
-* `uphill_A`, `downhill_A`: 0.5 m/s up (down) a 5 m incline of A deg; its end reached without a fall;
-  the speed error on the incline [% of 0.5 m/s].
+* `uphill_A`, `downhill_A`: 0.5 m/s up (down) a 5 m incline of A deg, no turning commanded; its end reached
+  without a fall; the speed error on the incline [% of 0.5 m/s], and the largest heading drift [deg] (a policy that
+  turns across the slope climbs a gentler grade, and may fall sideways).
+* `uphill_hold_A`, `downhill_hold_A`: the same with heading hold (the courses' yaw correction, as an operator
+  steering up the fall line would): what of an incline's failures is the heading's.
 * `uneven_C`: 0.4 m/s for 20 s over bumps of C cm; no fall; distance [m].
 * `step_slip_F`: the paper's step-and-slip hardware test: 0.3 m/s with heading hold onto and across a 2 cm board
   of friction F / 100 (`step_slip_15`: 0.15, a whiteboard with poppy seeds or oil) 1.5 m ahead, 1.5 m long;
@@ -48,7 +51,8 @@ from mbc.sim import DigitSim
 from mbc.types import Command, Controller, JointCommand, RobotState
 
 FIXED = ("flat", "max_velocity", "mar", "gait", "sand")
-PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uneven": "C cm", "step_slip": "F friction / 100",
+PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uphill_hold": "A deg", "downhill_hold": "A deg", "uneven": "C cm",
+              "step_slip": "F friction / 100",
               "course_slope": "L levels", "course_uneven": "L levels", "course_mixed": "L levels", "course": "L levels",
               "random_velocity": "N trajectories"}
 OPTIONAL_NUMBER = ("course_slope", "course_uneven", "course_mixed", "course", "random_velocity")
@@ -177,15 +181,16 @@ def _course(kind: str):
     return run
 
 
-def _incline(sign: int):
+def _incline(sign: int, hold_heading: bool = False):
     def run(controller, angle, seed, shift) -> dict:
         sim, shifted, state = _start("slope", seed, shift, controller, angle_deg=sign * angle, run_up_m=RUN_UP_M,
                                      length_m=INCLINE_M)
-        episode = run_episode(sim, shifted, Command(0.5), 30.0, state=state)
+        walker = HeadingHold(shifted) if hold_heading else shifted
+        episode = run_episode(sim, walker, Command(0.5), 30.0, state=state)
         x = episode.arrays("base_pos")[:, 0]
         error = incline_speed_error_pct(episode, RUN_UP_M + 0.5, RUN_UP_M + INCLINE_M - 0.5, 0.5)
         return {"success": bool(not episode.fell and x.max() > RUN_UP_M + INCLINE_M), "fell": episode.fell,
-                "metric": error}
+                "metric": error, "heading_drift_deg": float(np.degrees(np.abs(episode.yaw()).max()))}
     return run
 
 
@@ -323,5 +328,6 @@ def _gait(controller, _, seed, shift) -> dict:
 
 _RUNNERS = {"flat": _flat, "course_slope": _course("slope"), "course_uneven": _course("uneven"),
             "course_mixed": _course("mixed"), "course": _course("mixed"), "uphill": _incline(1),
-            "downhill": _incline(-1), "uneven": _uneven, "random_velocity": _random_velocity,
+            "downhill": _incline(-1), "uphill_hold": _incline(1, hold_heading=True),
+            "downhill_hold": _incline(-1, hold_heading=True), "uneven": _uneven, "random_velocity": _random_velocity,
             "max_velocity": _max_velocity, "mar": _mar, "gait": _gait, "step_slip": _step_slip, "sand": _sand}

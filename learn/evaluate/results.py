@@ -15,12 +15,11 @@ from functools import cached_property
 from learn.evaluate.gait import SCALARS
 from learn.evaluate.metrics import mean_ci95
 from learn.evaluate.protocols import parse_protocol
-from mbc.errors import ConfigError
 
 FIGURES: dict[str, list[tuple[str, str]]] = {
     "flat": [("commands tracked", "metric")],
     "course": [("levels passed", "metric"), ("time to the end [s]", "time_to_end_s")],
-    "incline": [("speed error [% of 0.5 m/s]", "metric")],
+    "incline": [("speed error [% of 0.5 m/s]", "metric"), ("heading drift [deg]", "heading_drift_deg")],
     "uneven": [("distance [m]", "metric")],
     "step_slip": [("slid on the board [m]", "metric")],
     "sand": [("distance [m]", "metric")],
@@ -41,7 +40,7 @@ def figure_kind(protocol: str) -> str:
     kind, _ = parse_protocol(protocol)
     if kind.startswith("course"):
         return "course"
-    return "incline" if kind in ("uphill", "downhill") else kind
+    return "incline" if kind.startswith(("uphill", "downhill")) else kind
 
 
 @dataclass
@@ -122,23 +121,23 @@ class Results:
         return cls([{k: math.nan if v is None else v for k, v in r.items()} for r in raw])
 
     @classmethod
-    def merged(cls, parts: Sequence[Results], labels: Callable[[list[str]], dict[str, str]]) -> Results:
-        """One `Results` of evaluations run apart (each training seed as its run finished, say): every job once,
-        controllers relabelled over all of them by `labels` (paths -> labels), since two runs may each have
-        called a different `.../policy.pt` 'policy'. A job evaluated in two parts is refused: which to keep
-        would be a choice the tables hide."""
-        raw, seen = [], {}
-        for k, part in enumerate(parts):
+    def merged(cls, parts: Sequence[Results], labels: Callable[[list[str]], dict[str, str]]) -> tuple[Results, int]:
+        """One `Results` of evaluations run apart (each training seed as its run finished, say), and how many jobs a
+        later part replaced: a job (path, protocol, seed, shift) in several parts is the last part's (re-evaluated,
+        say, with a figure added). Controllers are relabelled over all parts by `labels` (paths -> labels), since
+        two runs may each have called a different `.../policy.pt` 'policy'."""
+        jobs: dict[tuple, dict] = {}
+        replaced = 0
+        for part in parts:
             for r in part.raw:
                 job = (r["path"], r["protocol"], r["seed"], r["shift"])
-                if job in seen:
-                    raise ConfigError(f"{job} is in results {seen[job]} and {k}: give each job once")
-                seen[job] = k
-                raw.append(dict(r))
+                replaced += job in jobs
+                jobs[job] = dict(r)
+        raw = list(jobs.values())
         names = labels(list(dict.fromkeys(r["path"] for r in raw)))
         for r in raw:
             r["controller"] = names[r["path"]]
-        return cls(raw)
+        return cls(raw), replaced
 
 
 def _mean_ci(mean: float, ci: float) -> str:
