@@ -52,8 +52,9 @@ class CommandSampling:
     """Heading hold (legged_gym's heading commands, an operator steering): the yaw rate handed to the walker is the
     drawn one plus k wrap(psi_ref - psi), clipped to +-`heading_correction_max_radps`, where psi_ref is the episode's
     first heading advanced by the drawn yaw rates. A walker that turns off its heading is commanded back, so a
-    drift costs yaw-rate tracking; without it a drift of 0.1 rad/s costs 4% of that term, and fine-tunings turned
-    across their climbs (docs/design.md, "heading on inclines"). 0: off, the drawn yaw rate alone."""
+    drift costs yaw-rate tracking; without it a drift of 0.1 rad/s costs 4% of that term. Fine-tunings turn across
+    their climbs without it, and a PPF trained with it on its inclines (1/s) turned as much when not held
+    (docs/design.md, "heading on inclines"), so no sampling uses it by default. 0: off, the drawn yaw rate alone."""
     heading_correction_max_radps: float = 0.5
     """Largest correction of the heading hold [rad/s] (the evaluation's `HeadingHold`)."""
 

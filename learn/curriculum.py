@@ -36,9 +36,6 @@ INCLINE_LENGTH_M = 5.0
 """Horizontal length of a curriculum incline [m] (the evaluation's): at the inclines' commands its end (an
 uphill's crest, where a 20 m incline's policy fell in evaluation; a downhill's foot) is reached in 54-82% of the
 20 s episodes, and four metres of promotion fit on it."""
-INCLINE_HEADING_GAIN_PER_S = 1.0
-"""Gain of the incline environments' heading hold [1/s] (the evaluation's `HeadingHold`): a heading 0.3 rad off
-the fall line is commanded back at 0.3 rad/s."""
 
 
 def terrain_spec(kind: str, difficulty: float) -> str:
@@ -73,17 +70,17 @@ class TerrainCurriculum:
     forgot the steeper climbs it started with."""
     uphill_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
         vx_mps=(0.1, 0.8), vy_mps=(-0.2, 0.2), yaw_rate_radps=(-0.2, 0.2), standing_probability=0.1,
-        lateral_probability=0.2, yaw_probability=0.2, widened=False, heading_gain_per_s=INCLINE_HEADING_GAIN_PER_S))
+        lateral_probability=0.2, yaw_probability=0.2, widened=False))
     """Commands of the uphill environments. The flat-ground commands kept a fine-tuning off its inclines:
     walking backward or turned away from the fall line most of the time, 5 M steps of PPF forgot the 12-16 deg
     climbs it started with (docs/evaluation.md, "PPF at 5 M steps"). Not widened by the velocity curriculum:
     widened to 1.2 m/s, 91% of the uphill episodes of a fine-tuning fell (docs/design.md, "inclines at speeds
-    they allow"). Held on their heading (`CommandSampling.heading_gain_per_s`): without it, 5 M-step PPFs turned
-    up to 73 deg across a 14 deg climb, where a gentler grade costs little of the tracking reward, and fell
-    (docs/design.md, "heading on inclines")."""
+    they allow"). 5 M-step fine-tunings turn off the fall line on these climbs and fall; held on their heading
+    (`CommandSampling.heading_gain_per_s`) in training, one did so as much (docs/design.md, "heading on
+    inclines")."""
     downhill_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
         vx_mps=(0.3, 0.5), vy_mps=(-0.2, 0.2), yaw_rate_radps=(-0.2, 0.2), standing_probability=0.1,
-        lateral_probability=0.2, yaw_probability=0.2, widened=False, heading_gain_per_s=INCLINE_HEADING_GAIN_PER_S))
+        lateral_probability=0.2, yaw_probability=0.2, widened=False))
     """Commands of the downhill environments, slower: over the crest onto a 10 deg descent at 0.65 m/s the MBC
     and the policies fall on every start (at 0.5 none)."""
     def __post_init__(self) -> None:
