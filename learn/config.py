@@ -48,20 +48,8 @@ class CommandSampling:
     """A new command is drawn after a time uniform in this range [s]."""
     widened: bool = True
     """Whether the velocity curriculum widens the forward commands (scaling them as it does the task's range)."""
-    heading_gain_per_s: float = 0.0
-    """Heading hold (legged_gym's heading commands, an operator steering): the yaw rate handed to the walker is the
-    drawn one plus k wrap(psi_ref - psi), clipped to +-`heading_correction_max_radps`, where psi_ref is the episode's
-    first heading advanced by the drawn yaw rates. A walker that turns off its heading is commanded back, so a
-    drift costs yaw-rate tracking; without it a drift of 0.1 rad/s costs 4% of that term. Fine-tunings turn across
-    their climbs without it, and a PPF trained with it on its inclines (1/s) turned as much when not held
-    (docs/design.md, "heading on inclines"), so no sampling uses it by default. 0: off, the drawn yaw rate alone."""
-    heading_correction_max_radps: float = 0.5
-    """Largest correction of the heading hold [rad/s] (the evaluation's `HeadingHold`)."""
 
     def __post_init__(self) -> None:
-        _require(self.heading_gain_per_s >= 0, f"heading_gain_per_s must be >= 0, got {self.heading_gain_per_s}")
-        _require(self.heading_correction_max_radps >= 0,
-                 f"heading_correction_max_radps must be >= 0, got {self.heading_correction_max_radps}")
         for name in ("vx_mps", "vy_mps", "yaw_rate_radps", "resample_interval_s"):
             _check_range(name, getattr(self, name))
         for name in ("standing_probability", "lateral_probability", "yaw_probability"):

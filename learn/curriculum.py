@@ -75,9 +75,8 @@ class TerrainCurriculum:
     walking backward or turned away from the fall line most of the time, 5 M steps of PPF forgot the 12-16 deg
     climbs it started with (docs/evaluation.md, "PPF at 5 M steps"). Not widened by the velocity curriculum:
     widened to 1.2 m/s, 91% of the uphill episodes of a fine-tuning fell (docs/design.md, "inclines at speeds
-    they allow"). 5 M-step fine-tunings turn off the fall line on these climbs and fall; held on their heading
-    (`CommandSampling.heading_gain_per_s`) in training, one did so as much (docs/design.md, "heading on
-    inclines")."""
+    they allow"). 5 M-step fine-tunings turn off the fall line on these climbs and fall; heading commands in
+    training did not stop it (docs/design.md, "heading on inclines")."""
     downhill_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
         vx_mps=(0.3, 0.5), vy_mps=(-0.2, 0.2), yaw_rate_radps=(-0.2, 0.2), standing_probability=0.1,
         lateral_probability=0.2, yaw_probability=0.2, widened=False))

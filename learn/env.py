@@ -40,7 +40,7 @@ from learn.rewards import (
 from learn.swing_reward import SwingFootReference
 from mbc.controller import AlipControllerConfig
 from mbc.errors import ConfigError, MbcError
-from mbc.geometry import rotate_inverse, wrap_angle, yaw_of_quaternion
+from mbc.geometry import rotate_inverse, yaw_of_quaternion
 from mbc.sim import DigitSim, DomainParams
 from mbc.timing import LEFT, RIGHT
 from mbc.types import RobotState
@@ -114,10 +114,6 @@ class WalkEnv:
         self._velocity = np.zeros(6)
         self.state: RobotState | None = None
         self.command = np.zeros(3)
-        """The command of the current tick: what the walker observes, the expert follows and the reward tracks."""
-        self.drawn_command = np.zeros(3)
-        """The command as drawn; `command` adds the heading hold's correction to its yaw rate, where there is one."""
-        self._heading_ref = 0.0
         self.observation = np.zeros(self.builder.layout.size)
         self.monitors = np.zeros(len(MONITOR_NAMES))
         self.episode_start_s = 0.0
@@ -151,9 +147,7 @@ class WalkEnv:
         self.state = self.sim.state()
         self.episode_start_s = self.state.time
         self.episode_start_xy = self.state.base_pos[:2].copy()
-        self.drawn_command = self._sample_command()
-        self._heading_ref = yaw_of_quaternion(self.state.base_quat)
-        self.command = self._steered(self._heading_ref)
+        self.command = self._sample_command()
         self._next_command_s = rng.uniform(*self.command_sampling.resample_interval_s)
         self._air_time_s, self._in_contact = np.zeros(2), self.state.contact.copy()
         self._earlier_actions = [np.zeros(ACTION_DIM), np.zeros(ACTION_DIM)]
@@ -167,13 +161,6 @@ class WalkEnv:
         self.observation = self._observe()
         self._update_monitors()
         return self.observation
-
-    def _steered(self, yaw: float) -> np.ndarray:
-        """The drawn command with the heading hold's yaw-rate correction (`CommandSampling.heading_gain_per_s`)."""
-        sampling = self.command_sampling
-        limit = sampling.heading_correction_max_radps
-        correction = min(max(sampling.heading_gain_per_s * wrap_angle(self._heading_ref - yaw), -limit), limit)
-        return self.drawn_command + np.array([0.0, 0.0, correction])
 
     def _sample_command(self) -> np.ndarray:
         command = sample_command(self.rng, self.command_sampling)
@@ -237,12 +224,9 @@ class WalkEnv:
             fell, off_terrain = False, True
         terminated = fell or tilt_of(state.base_quat) > cfg.tilt_limit_rad
         truncated = not terminated and (off_terrain or self.episode_time_s >= cfg.episode_length_s - 1e-9)
-        self._heading_ref += self.drawn_command[2] * self.sim.dt
         if self.episode_time_s >= self._next_command_s:
-            self.drawn_command = self.command = self._sample_command()
+            self.command = self._sample_command()
             self._next_command_s += self.rng.uniform(*self.command_sampling.resample_interval_s)
-        if self.command_sampling.heading_gain_per_s:
-            self.command = self._steered(yaw)
         self.builder.record_action(action)
         self.observation = self._observe()  # (the gait clock advances to the new state)
         if cfg.purerl_rewards:  # of this tick's command, at the new state

@@ -12,7 +12,6 @@ from learn.observation import ObservationBuilder, ObservationLayout
 from learn.rewards import PAPER_WEIGHTS, RewardInputs, ang_vel_tracking, base_motion, lin_vel_tracking, reward_terms, torque
 from mbc.errors import ConfigError
 from mbc.fuzz import random_joint_positions, random_quaternion_wxyz
-from mbc.geometry import yaw_of_quaternion
 from mbc.types import JointCommand, RobotState
 
 QUIET = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0))
@@ -246,35 +245,3 @@ def test_the_time_keeping_clock_ends_each_step_at_phase_one_whatever_the_feet_do
     assert touchdowns["time"] == expected and touchdowns["contact"] > expected
     with pytest.raises(ConfigError, match="unknown gait_clock 'wall'"):
         EnvConfig(gait_clock="wall")
-
-
-def test_heading_hold_commands_the_walker_back_to_the_heading_it_was_given():
-    straight = CommandSampling(vx_mps=(0.3, 0.3), standing_probability=0.0, lateral_probability=0.0, yaw_probability=0.0,
-                               heading_gain_per_s=1.0, heading_correction_max_radps=0.5)
-    env = WalkEnv(EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0), commands=straight))
-    env.reset(seed=0)
-    env._next_command_s = math.inf
-    assert env.command.tolist() == pytest.approx([0.3, 0.0, 0.0], abs=1e-6)  # on its heading: no correction
-    for yaw, expected in ((0.3, -0.3), (-0.2, 0.2), (1.0, -0.5)):  # turned off it: back, at most 0.5 rad/s
-        state = env.sim.state()
-        state.base_quat = np.array([math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)])
-        env.sim.set_state(state)
-        env.state = env.sim.state()
-        env.step(np.zeros(ACTION_DIM))
-        assert env.command[2] == pytest.approx(expected, abs=0.02) and env.drawn_command[2] == 0.0
-    env.reset(seed=0)
-    env._next_command_s = math.inf
-    start = yaw_of_quaternion(env.state.base_quat)
-    env.drawn_command = np.array([0.3, 0.0, 0.4])  # a turn: the held heading advances at the drawn rate
-    for _ in range(20):
-        env.step(np.zeros(ACTION_DIM))
-    behind = start + 0.4 * 20 * env.sim.dt - yaw_of_quaternion(env.state.base_quat)
-    assert env.command[2] == pytest.approx(0.4 + behind, abs=1e-9) and 0.02 < behind < 0.06
-    turning = WalkEnv(QUIET)  # off by default: the walker gets the drawn command as it is
-    turning.reset(seed=1)
-    turning.drawn_command = turning.command = np.array([0.3, 0.0, 0.4])
-    for _ in range(20):
-        turning.step(np.zeros(ACTION_DIM))
-    assert turning.command.tolist() == [0.3, 0.0, 0.4]
-    with pytest.raises(ConfigError, match="heading_gain_per_s"):
-        CommandSampling(heading_gain_per_s=-1.0)
