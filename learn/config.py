@@ -48,10 +48,6 @@ class CommandSampling:
     """A new command is drawn after a time uniform in this range [s]."""
     widened: bool = True
     """Whether the velocity curriculum widens the forward commands (scaling them as it does the task's range)."""
-    reference_heading: bool = False
-    """Whether the linear-velocity reward measures the velocity in the episode's reference heading (its first
-    heading advanced by the commanded yaw rates) instead of the current one: a walker that turns off its course
-    then stops tracking the command (docs/design.md, "heading on inclines")."""
 
     def __post_init__(self) -> None:
         for name in ("vx_mps", "vy_mps", "yaw_rate_radps", "resample_interval_s"):

@@ -70,16 +70,16 @@ class TerrainCurriculum:
     forgot the steeper climbs it started with."""
     uphill_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
         vx_mps=(0.1, 0.8), vy_mps=(-0.2, 0.2), yaw_rate_radps=(-0.2, 0.2), standing_probability=0.1,
-        lateral_probability=0.2, yaw_probability=0.2, widened=False, reference_heading=True))
+        lateral_probability=0.2, yaw_probability=0.2, widened=False))
     """Commands of the uphill environments. The flat-ground commands kept a fine-tuning off its inclines:
     walking backward or turned away from the fall line most of the time, 5 M steps of PPF forgot the 12-16 deg
     climbs it started with (docs/evaluation.md, "PPF at 5 M steps"). Not widened by the velocity curriculum:
     widened to 1.2 m/s, 91% of the uphill episodes of a fine-tuning fell (docs/design.md, "inclines at speeds
-    they allow"). Tracked in the episode's reference heading: 5 M-step fine-tunings tracking them in their current
-    heading turned off the fall line on these climbs and fell (docs/design.md, "heading on inclines")."""
+    they allow"). 5 M-step fine-tunings turn off the fall line on these climbs and fall; neither heading commands
+    nor tracking in the episode's first heading stopped it in training (docs/design.md, "heading on inclines")."""
     downhill_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
         vx_mps=(0.3, 0.5), vy_mps=(-0.2, 0.2), yaw_rate_radps=(-0.2, 0.2), standing_probability=0.1,
-        lateral_probability=0.2, yaw_probability=0.2, widened=False, reference_heading=True))
+        lateral_probability=0.2, yaw_probability=0.2, widened=False))
     """Commands of the downhill environments, slower: over the crest onto a 10 deg descent at 0.65 m/s the MBC
     and the policies fall on every start (at 0.5 none)."""
     def __post_init__(self) -> None:

@@ -117,8 +117,6 @@ class WalkEnv:
         self.observation = np.zeros(self.builder.layout.size)
         self.monitors = np.zeros(len(MONITOR_NAMES))
         self.episode_start_s = 0.0
-        self.reference_yaw = 0.0
-        """The episode's first heading advanced by its commanded yaw rates [rad] (`CommandSampling.reference_heading`)."""
 
     @property
     def observation_size(self) -> int:
@@ -149,7 +147,6 @@ class WalkEnv:
         self.state = self.sim.state()
         self.episode_start_s = self.state.time
         self.episode_start_xy = self.state.base_pos[:2].copy()
-        self.reference_yaw = yaw_of_quaternion(self.state.base_quat)
         self.command = self._sample_command()
         self._next_command_s = rng.uniform(*self.command_sampling.resample_interval_s)
         self._air_time_s, self._in_contact = np.zeros(2), self.state.contact.copy()
@@ -214,8 +211,7 @@ class WalkEnv:
             self._push_at_s = math.inf
         command = self.command
         self.state = state = self.sim.step(self.action_space.to_command(action, self.state))
-        self.reference_yaw += command[2] * self.sim.dt
-        yaw = self.reference_yaw if self.command_sampling.reference_heading else yaw_of_quaternion(state.base_quat)
+        yaw = yaw_of_quaternion(state.base_quat)
         cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
         vx, vy = state.base_linvel[0], state.base_linvel[1]
         terms = reward_terms(RewardInputs(

@@ -5,9 +5,7 @@
     torque             |tau|^2                                  weight -4e-6
     base_motion        |w_xy|^2                                 weight -0.6
 
-Velocities are in the heading frame (linear) and the base frame (angular), as the command is; on the inclines
-the linear one is in the episode's reference heading instead (`CommandSampling.reference_heading`), so that a
-walker turned off the fall line no longer tracks an uphill command.
+Velocities are in the heading frame (linear) and the base frame (angular), as the command is.
 PureRL (`PURERL_WEIGHTS`, the paper's baseline: a reward like Radosavovic et al.'s with an ALIP swing-foot
 trajectory, feet air time and second-order smoothness) adds:
 
@@ -107,7 +105,7 @@ class RewardInputs:
     """What the reward terms read at one tick."""
 
     v_xy_heading: np.ndarray
-    """(2,) base velocity, heading frame (or the reference heading's) [m/s]."""
+    """(2,) base velocity, heading frame [m/s]."""
     angvel_base: np.ndarray
     """(3,) base angular velocity, base frame [rad/s]."""
     yaw_rate: float
