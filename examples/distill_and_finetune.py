@@ -69,6 +69,10 @@ class Args:
     """The observation's gait clock: 'contact', the MBC's (a step ends at the swing foot's touchdown; what
     the distilled policy observes), or 'time' (every step lasts its duration: PureRL's option, where a stand
     then misses the contact schedule all step long)."""
+    yaw_rate_sigma: float | None = None
+    """delta_omega of the yaw-rate tracking reward exp(-(w_z - w_z_cmd)^2 / delta) [(rad/s)^2] (default 0.25). At 0.05
+    one PPF seed kept its heading up 14 deg without a hold (5/5; at 0.25 no seed did): docs/design.md, "heading on
+    inclines"."""
     seed: int = 0
     device: str = "cpu"
     """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
@@ -95,6 +99,8 @@ def main(args: Args) -> None:
     ppo = PpoConfig(gamma=args.gamma if args.gamma is not None else (SCRATCH_GAMMA if scratch else PpoConfig.gamma),
                     lam=args.lam if args.lam is not None else (SCRATCH_LAM if scratch else PpoConfig.lam))
     env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock)
+    if args.yaw_rate_sigma is not None:
+        env = dataclasses.replace(env, ang_vel_tracking_sigma=args.yaw_rate_sigma)
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init, env=env,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
                             mar_monitors=args.mar_monitors,

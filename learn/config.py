@@ -144,6 +144,8 @@ class EnvConfig:
         _require(0 < self.tilt_limit_rad < 1.5, f"tilt_limit_rad must be in (0, 1.5), got {self.tilt_limit_rad}")
         _require(self.history_length >= 0, f"history_length must be >= 0, got {self.history_length}")
         _require(self.gait_clock in GAIT_CLOCKS, f"unknown gait_clock {self.gait_clock!r}; choose from {GAIT_CLOCKS}")
+        for name in ("lin_vel_tracking_sigma", "ang_vel_tracking_sigma"):
+            _require(getattr(self, name) > 0, f"{name} must be positive, got {getattr(self, name)}")
 
 
 @dataclass(frozen=True)

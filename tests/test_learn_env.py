@@ -152,6 +152,8 @@ def test_bad_terrain_and_config_values_give_clear_errors():
         WalkEnv(EnvConfig(terrains=("lava",)))
     with pytest.raises(ConfigError, match="low <= high"):
         CommandSampling(vx_mps=(1.0, -1.0))
+    with pytest.raises(ConfigError, match="ang_vel_tracking_sigma must be positive"):
+        EnvConfig(ang_vel_tracking_sigma=0.0)
     with pytest.raises(ConfigError, match="without an expert"):
         env = WalkEnv(QUIET, with_expert=False)
         env.reset(0)
