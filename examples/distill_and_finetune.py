@@ -71,7 +71,7 @@ class Args:
     then misses the contact schedule all step long)."""
     yaw_rate_sigma: float | None = None
     """delta_omega of the yaw-rate tracking reward exp(-(w_z - w_z_cmd)^2 / delta) [(rad/s)^2] (default 0.25). At 0.05
-    one PPF seed kept its heading up 14 deg without a hold (5/5; at 0.25 no seed did): docs/design.md, "heading on
+    one PPF seed kept its heading up 14 deg without a hold (5/5; at 0.25 no PPF seed did): docs/design.md, "heading on
     inclines"."""
     seed: int = 0
     device: str = "cpu"
