@@ -73,9 +73,6 @@ class Args:
     """delta_omega of the yaw-rate tracking reward exp(-(w_z - w_z_cmd)^2 / delta) [(rad/s)^2] (default 0.25). At 0.05
     one PPF seed kept its heading up 14 deg without a hold (5/5; at 0.25 no PPF seed did): docs/design.md, "heading on
     inclines"."""
-    incline_yaw_rate_sigma: float | None = None
-    """delta_omega on the curriculum's inclines only [(rad/s)^2] (default: --yaw-rate-sigma there too): the sharper
-    kernel where the heading drifts, the flat ground's elsewhere."""
     seed: int = 0
     device: str = "cpu"
     """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
@@ -104,8 +101,6 @@ def main(args: Args) -> None:
     env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock)
     if args.yaw_rate_sigma is not None:
         env = dataclasses.replace(env, ang_vel_tracking_sigma=args.yaw_rate_sigma)
-    if args.incline_yaw_rate_sigma is not None:
-        env = dataclasses.replace(env, incline_ang_vel_tracking_sigma=args.incline_yaw_rate_sigma)
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init, env=env,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
                             mar_monitors=args.mar_monitors,

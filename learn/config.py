@@ -137,9 +137,6 @@ class EnvConfig:
     """delta_xy of the linear velocity tracking reward exp(-|v - v_cmd|^2 / delta) [(m/s)^2]."""
     ang_vel_tracking_sigma: float = 0.25
     """delta_omega of the yaw rate tracking reward [(rad/s)^2]."""
-    incline_ang_vel_tracking_sigma: float | None = None
-    """delta_omega on inclines (terrain 'slope') [(rad/s)^2], where the fine-tunings' heading drifts (docs/design.md,
-    "heading on inclines"); None: `ang_vel_tracking_sigma` on every terrain."""
 
     def __post_init__(self) -> None:
         _require(len(self.terrains) > 0, "terrains must name at least one terrain")
@@ -147,9 +144,8 @@ class EnvConfig:
         _require(0 < self.tilt_limit_rad < 1.5, f"tilt_limit_rad must be in (0, 1.5), got {self.tilt_limit_rad}")
         _require(self.history_length >= 0, f"history_length must be >= 0, got {self.history_length}")
         _require(self.gait_clock in GAIT_CLOCKS, f"unknown gait_clock {self.gait_clock!r}; choose from {GAIT_CLOCKS}")
-        for name in ("lin_vel_tracking_sigma", "ang_vel_tracking_sigma", "incline_ang_vel_tracking_sigma"):
-            value = getattr(self, name)
-            _require(value is None or value > 0, f"{name} must be positive, got {value}")
+        for name in ("lin_vel_tracking_sigma", "ang_vel_tracking_sigma"):
+            _require(getattr(self, name) > 0, f"{name} must be positive, got {getattr(self, name)}")
 
 
 @dataclass(frozen=True)

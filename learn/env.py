@@ -129,10 +129,6 @@ class WalkEnv:
         name, params = parse_terrain(spec)
         self.sim = DigitSim(name, seed=self.index, **params)
         self.terrain = spec
-        incline_sigma = self.config.incline_ang_vel_tracking_sigma
-        self.yaw_rate_sigma = incline_sigma if name == "slope" and incline_sigma is not None else \
-            self.config.ang_vel_tracking_sigma
-        """delta_omega of this terrain's yaw-rate tracking term [(rad/s)^2]."""
         self._feet = [self.sim.model.body(f).id for f in digit.FOOT_LINKS]
         self._swing_reference = SwingFootReference(self.sim) if self.config.purerl_rewards else None
 
@@ -221,7 +217,7 @@ class WalkEnv:
         terms = reward_terms(RewardInputs(
             v_xy_heading=np.array([cos_yaw * vx + sin_yaw * vy, -sin_yaw * vx + cos_yaw * vy]),
             angvel_base=np.array(rotate_inverse(state.base_quat, state.base_angvel)), yaw_rate=float(state.base_angvel[2]),
-            command=command, tau=state.tau), cfg.lin_vel_tracking_sigma, self.yaw_rate_sigma)
+            command=command, tau=state.tau), cfg.lin_vel_tracking_sigma, cfg.ang_vel_tracking_sigma)
         try:
             fell, off_terrain = self.sim.fallen, False
         except MbcError:  # walked off the edge of a bounded terrain: the episode ends, not as a failure
