@@ -73,10 +73,6 @@ class Args:
     """delta_omega of the yaw-rate tracking reward exp(-(w_z - w_z_cmd)^2 / delta) [(rad/s)^2] (default 0.25). At 0.05
     one PPF seed kept its heading up 14 deg without a hold (5/5; at 0.25 no PPF seed did): docs/design.md, "heading on
     inclines"."""
-    yaw_rate_window_s: float = 0.0
-    """The yaw-rate tracking reward on the yaw rate and command averaged over this window [s] (0.7: a stride at
-    0.35 s steps, the gait's sway left out, the heading's drift kept; 0: instantaneous, the paper's). Pair it with a
-    sharper --yaw-rate-sigma (0.02: a 0.11 rad/s drift costs 45% of the term, the distilled gait 1-2%)."""
     seed: int = 0
     device: str = "cpu"
     """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
@@ -105,7 +101,6 @@ def main(args: Args) -> None:
     env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock)
     if args.yaw_rate_sigma is not None:
         env = dataclasses.replace(env, ang_vel_tracking_sigma=args.yaw_rate_sigma)
-    env = dataclasses.replace(env, yaw_rate_window_s=args.yaw_rate_window_s)
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init, env=env,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
                             mar_monitors=args.mar_monitors,

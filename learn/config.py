@@ -137,10 +137,6 @@ class EnvConfig:
     """delta_xy of the linear velocity tracking reward exp(-|v - v_cmd|^2 / delta) [(m/s)^2]."""
     ang_vel_tracking_sigma: float = 0.25
     """delta_omega of the yaw rate tracking reward [(rad/s)^2]."""
-    yaw_rate_window_s: float = 0.0
-    """The yaw rate tracking reward compares the yaw rate and its command averaged over this window [s]
-    (`learn.yaw_window`: a stride, 0.7 s at the MBC's 0.35 s steps, leaves the gait's sway out and the heading's
-    drift in); 0: the instantaneous yaw rate, the paper's."""
 
     def __post_init__(self) -> None:
         _require(len(self.terrains) > 0, "terrains must name at least one terrain")
@@ -150,7 +146,6 @@ class EnvConfig:
         _require(self.gait_clock in GAIT_CLOCKS, f"unknown gait_clock {self.gait_clock!r}; choose from {GAIT_CLOCKS}")
         for name in ("lin_vel_tracking_sigma", "ang_vel_tracking_sigma"):
             _require(getattr(self, name) > 0, f"{name} must be positive, got {getattr(self, name)}")
-        _require(self.yaw_rate_window_s >= 0, f"yaw_rate_window_s must be >= 0, got {self.yaw_rate_window_s}")
 
 
 @dataclass(frozen=True)

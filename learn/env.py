@@ -38,7 +38,6 @@ from learn.rewards import (
     vertical_velocity,
 )
 from learn.swing_reward import SwingFootReference
-from learn.yaw_window import WindowedYawRate
 from mbc.controller import AlipControllerConfig
 from mbc.errors import ConfigError, MbcError
 from mbc.geometry import rotate_inverse, yaw_of_quaternion
@@ -104,8 +103,6 @@ class WalkEnv:
         self.terrain = ""
         self.set_terrain(config.terrains[index % len(config.terrains)])
         self.action_space = ActionSpace(self.sim.kp, self.sim.kd)
-        window_s = config.yaw_rate_window_s
-        self._yaw_window = WindowedYawRate(window_s, self.sim.dt) if window_s > 0 else None
         self.expert = Expert(self.action_space) if with_expert else None
         self.builder = ObservationBuilder(config.history_length, gait_timing(config.gait_clock))
         self.rng = np.random.default_rng(index)
@@ -153,8 +150,6 @@ class WalkEnv:
         self.command = self._sample_command()
         self._next_command_s = rng.uniform(*self.command_sampling.resample_interval_s)
         self._air_time_s, self._in_contact = np.zeros(2), self.state.contact.copy()
-        if self._yaw_window is not None:
-            self._yaw_window.reset(yaw_of_quaternion(self.state.base_quat))
         self._earlier_actions = [np.zeros(ACTION_DIM), np.zeros(ACTION_DIM)]
         if self._swing_reference is not None:
             self._swing_reference.reset()
@@ -219,14 +214,10 @@ class WalkEnv:
         yaw = yaw_of_quaternion(state.base_quat)
         cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
         vx, vy = state.base_linvel[0], state.base_linvel[1]
-        yaw_rate, tracked_command = float(state.base_angvel[2]), command
-        if self._yaw_window is not None:
-            yaw_rate, yaw_rate_command = self._yaw_window.update(yaw, command[2])
-            tracked_command = np.array([command[0], command[1], yaw_rate_command])
         terms = reward_terms(RewardInputs(
             v_xy_heading=np.array([cos_yaw * vx + sin_yaw * vy, -sin_yaw * vx + cos_yaw * vy]),
-            angvel_base=np.array(rotate_inverse(state.base_quat, state.base_angvel)), yaw_rate=yaw_rate,
-            command=tracked_command, tau=state.tau), cfg.lin_vel_tracking_sigma, cfg.ang_vel_tracking_sigma)
+            angvel_base=np.array(rotate_inverse(state.base_quat, state.base_angvel)), yaw_rate=float(state.base_angvel[2]),
+            command=command, tau=state.tau), cfg.lin_vel_tracking_sigma, cfg.ang_vel_tracking_sigma)
         try:
             fell, off_terrain = self.sim.fallen, False
         except MbcError:  # walked off the edge of a bounded terrain: the episode ends, not as a failure

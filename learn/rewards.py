@@ -109,9 +109,9 @@ class RewardInputs:
     angvel_base: np.ndarray
     """(3,) base angular velocity, base frame [rad/s]."""
     yaw_rate: float
-    """World-frame yaw rate [rad/s] (averaged over `EnvConfig.yaw_rate_window_s` where it is set)."""
+    """World-frame yaw rate [rad/s]."""
     command: np.ndarray
-    """(3,) vx, vy, yaw rate (its yaw rate averaged over the same window)."""
+    """(3,) vx, vy, yaw rate."""
     tau: np.ndarray
     """(12,) applied joint torques [N m]."""
 
