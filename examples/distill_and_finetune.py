@@ -70,9 +70,9 @@ class Args:
     the distilled policy observes), or 'time' (every step lasts its duration: PureRL's option, where a stand
     then misses the contact schedule all step long)."""
     yaw_rate_sigma: float | None = None
-    """delta_omega of the yaw-rate tracking reward exp(-(w_z - w_z_cmd)^2 / delta) [(rad/s)^2] (default 0.25). At 0.05
-    one PPF seed kept its heading up 14 deg without a hold (5/5; at 0.25 no PPF seed did): docs/design.md, "heading on
-    inclines"."""
+    """delta_omega of the yaw-rate tracking reward exp(-(w_z - w_z_cmd)^2 / delta) [(rad/s)^2] (default 0.25, the paper's).
+    At 0.05 PPF did not keep its heading up 14 deg over three training seeds (5/5, 4/5, 0/5 without a hold; 1/5,
+    3/5, 2/5 at 0.25): docs/evaluation.md, "A sharper yaw-rate kernel"."""
     seed: int = 0
     device: str = "cpu"
     """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
