@@ -3,6 +3,7 @@ minibatches) per method, and where it goes, on a synthetic rollout of the traini
 
     python benchmarks/bench_ppo_update.py                   # ppf and ifm, torch's default threads
     python benchmarks/bench_ppo_update.py --threads 1 2 --repeats 5
+    python benchmarks/bench_ppo_update.py --devices cpu cuda --envs 128   # a GPU learner, a cluster's batch
 
 The update's time does not depend on the data's values, only on its shapes and on which loss terms a
 method has; the full profile of one PPF update is printed by --profile.
@@ -23,7 +24,7 @@ import tyro
 from learn.action import ACTION_DIM
 from learn.env import MONITOR_NAMES
 from learn.observation import ObservationLayout
-from learn.policy import ActorCritic
+from learn.policy import ActorCritic, learner_device
 from learn.ppo import Ppo, PpoConfig, method_regularizer
 from learn.vec_env import Rollout
 
@@ -33,6 +34,8 @@ class Args:
     methods: tuple[str, ...] = ("ppf", "ifm")
     threads: tuple[int, ...] = (0,)
     """torch intra-op threads to measure (0: torch's default for this machine)."""
+    devices: tuple[str, ...] = ("cpu",)
+    """Learner devices to measure ('cpu', 'cuda', 'cuda:N'); the first is the baseline of the ratios."""
     steps: int = 400
     envs: int = 16
     lipschitz_samples: tuple[int, ...] = (0, 256)
@@ -58,10 +61,12 @@ def synthetic_rollout(steps: int, envs: int, seed: int = 0) -> Rollout:
         last_values=rng.normal(1, 0.1, envs).astype(f32))
 
 
-def time_update(method: str, rollout: Rollout, repeats: int, lipschitz_samples: int) -> float:
+def time_update(method: str, rollout: Rollout, repeats: int, lipschitz_samples: int, device: torch.device) -> float:
+    """Median wall time of one update [s], the rollout's copy to `device` included (the update returns floats, so
+    each timed call has finished on the device when it returns)."""
     model = ActorCritic(rollout.observations.shape[-1])
     regularizer = dataclasses.replace(method_regularizer(method, label_every=4), lipschitz_samples=lipschitz_samples or None)
-    ppo = Ppo(model, PpoConfig(), regularizer)
+    ppo = Ppo(model, PpoConfig(), regularizer, device=device)
     ppo.update(rollout)
     times = []
     for _ in range(repeats):
@@ -74,17 +79,20 @@ def time_update(method: str, rollout: Rollout, repeats: int, lipschitz_samples: 
 def main(args: Args) -> None:
     rollout = synthetic_rollout(args.steps, args.envs)
     default_threads = torch.get_num_threads()
+    devices = [learner_device(name) for name in args.devices]
     print(f"one update of {rollout.samples:,} samples (5 epochs x 4 minibatches), median of {args.repeats} [s]")
-    print(f"{'method':>8} {'threads':>8} {'Lipschitz on':>13} {'update [s]':>11} {'samples/s':>10} {'vs first':>9}")
+    print(f"{'method':>8} {'device':>7} {'threads':>8} {'Lipschitz on':>13} {'update [s]':>11} {'samples/s':>10} "
+          f"{'vs first':>9}")
     for threads in args.threads:
         torch.set_num_threads(threads or default_threads)
         for method in args.methods:
             first = None
-            for samples in args.lipschitz_samples:
-                seconds = time_update(method, rollout, args.repeats, samples)
-                first = first or seconds
-                print(f"{method:>8} {torch.get_num_threads():>8} {samples or 'all':>13} {seconds:11.3f} "
-                      f"{rollout.samples / seconds:10.0f} {first / seconds:8.2f}x")
+            for device in devices:
+                for samples in args.lipschitz_samples:
+                    seconds = time_update(method, rollout, args.repeats, samples, device)
+                    first = first or seconds
+                    print(f"{method:>8} {device.type:>7} {torch.get_num_threads():>8} {samples or 'all':>13} "
+                          f"{seconds:11.3f} {rollout.samples / seconds:10.0f} {first / seconds:8.2f}x")
     if args.profile:
         torch.set_num_threads(default_threads)
         model = ActorCritic(rollout.observations.shape[-1])

@@ -186,19 +186,23 @@ def test_scaled_rewards_let_the_clipped_critic_reach_the_returns_in_a_warm_up(rn
     assert (abs(value - target) < 0.25 * target) == learns, (value, target)
 
 
-def test_update_terms_per_variant_and_critic_only_leaves_the_actor(rng):
-    model = ActorCritic(10)
-    n, T = 4, 8
+def _random_rollout(rng, T: int, n: int):
+    """A rollout of 10-dimensional observations, random actions and rewards, every state labelled."""
     from learn.vec_env import Rollout
 
-    rollout = Rollout(observations=rng.normal(size=(T, n, 10)).astype(np.float32),
-                      expert_actions=rng.normal(size=(T, n, 24)).astype(np.float32), label_valid=np.ones((T, n), bool),
-                      label_followed=np.ones((T, n), bool),
-                      expert_acted=np.zeros((T, n), bool), actions=rng.normal(size=(T, n, 24)).astype(np.float32),
-                      rewards=rng.normal(size=(T, n)).astype(np.float32), terminated=np.zeros((T, n), bool),
-                      truncated=np.zeros((T, n), bool), monitors=rng.normal(scale=0.1, size=(T, n, 3)).astype(np.float32),
-                      log_probs=np.full((T, n), -20.0, np.float32), values=np.zeros((T, n), np.float32),
-                      last_values=np.zeros(n, np.float32))
+    return Rollout(observations=rng.normal(size=(T, n, 10)).astype(np.float32),
+                   expert_actions=rng.normal(size=(T, n, 24)).astype(np.float32), label_valid=np.ones((T, n), bool),
+                   label_followed=np.ones((T, n), bool),
+                   expert_acted=np.zeros((T, n), bool), actions=rng.normal(size=(T, n, 24)).astype(np.float32),
+                   rewards=rng.normal(size=(T, n)).astype(np.float32), terminated=np.zeros((T, n), bool),
+                   truncated=np.zeros((T, n), bool), monitors=rng.normal(scale=0.1, size=(T, n, 3)).astype(np.float32),
+                   log_probs=np.full((T, n), -20.0, np.float32), values=np.zeros((T, n), np.float32),
+                   last_values=np.zeros(n, np.float32))
+
+
+def test_update_terms_per_variant_and_critic_only_leaves_the_actor(rng):
+    model = ActorCritic(10)
+    rollout = _random_rollout(rng, T=8, n=4)
     actor_before = [p.clone() for p in model.actor.parameters()]
     stats = Ppo(model, PpoConfig(epochs=1, minibatches=2), method_regularizer("ppf")).update(rollout, critic_only=True)
     assert set(stats) >= {"value"} and "surrogate" not in stats
@@ -313,6 +317,26 @@ def test_the_learner_device_is_chosen_clearly_and_checkpoints_stay_on_the_cpu(tm
     device = torch.device("cuda" if torch.cuda.is_available() else "cpu")
     Ppo(model, PpoConfig(), method_regularizer("ifm"), device=device)
     assert {tensor.device.type for tensor in model.checkpoint()["state_dict"].values()} == {"cpu"}
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
+def test_an_update_on_the_gpu_matches_the_same_update_on_the_cpu(rng):
+    """The minibatch order and the Lipschitz probes come from a CPU generator, so both devices take the same steps;
+    they differ only by float rounding (PPF: every loss term, the regularizer and the Lipschitz penalty included)."""
+    import copy
+
+    rollout = _random_rollout(rng, T=64, n=8)
+    config = PpoConfig(epochs=2, minibatches=4)
+    cpu_model = ActorCritic(10)
+    gpu_model = copy.deepcopy(cpu_model)
+    cpu_stats = Ppo(cpu_model, config, method_regularizer("ppf"), device="cpu").update(rollout)
+    gpu_stats = Ppo(gpu_model, config, method_regularizer("ppf"), device="cuda").update(rollout)
+    assert gpu_stats.keys() == cpu_stats.keys()
+    for name, value in cpu_stats.items():
+        assert gpu_stats[name] == pytest.approx(value, rel=1e-3, abs=1e-5), name
+    for (name, cpu), gpu in zip(cpu_model.state_dict().items(), gpu_model.state_dict().values()):
+        assert gpu.device.type == "cuda"
+        torch.testing.assert_close(gpu.cpu(), cpu, rtol=1e-3, atol=1e-4, msg=name)
 
 
 def test_the_iteration_scalars_count_falls_and_levels_per_terrain_kind():
