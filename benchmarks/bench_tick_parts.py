@@ -1,6 +1,7 @@
 """The parts of a control tick timed alone and inside the tick: what the tick loses to cache misses.
 
     python benchmarks/bench_tick_parts.py
+    MBC_QP_SOLVER_BUILD=simd python benchmarks/bench_tick_parts.py   # proxsuite's AVX build (mbc.qp_solver_build)
 
 Each part (the IK, the QP build, the QP solve) is run on the inputs it had at one tick of a walk,
 many times in a row, so its code and data stay in the CPU caches; the whole `act()` is run the same
@@ -18,6 +19,7 @@ import numpy as np
 import tyro
 
 from mbc.controller import AlipController
+from mbc.qp_solver_build import loaded_build
 from mbc.sim import DigitSim
 from mbc.types import Command
 
@@ -66,7 +68,8 @@ def main(args: Args) -> None:
                            args.repeats)
     in_tick = {part: float(np.median([t[part] for t in split])) for part in ("ik", "qp")}
 
-    print(f"== tick parts alone (each repeated {args.repeats}x on tick {args.ticks}'s inputs) and inside act()")
+    print(f"== tick parts alone (each repeated {args.repeats}x on tick {args.ticks}'s inputs) and inside act(); "
+          f"proxsuite build {loaded_build()}")
     print(f"   IK (placo, two solves)       alone {alone['ik'] * 1e6:6.1f} us   in the tick {in_tick['ik'] * 1e6:6.1f} us")
     print(f"   QP build + solve (proxsuite) alone {(alone['build'] + alone['solve']) * 1e6:6.1f} us   "
           f"in the tick {in_tick['qp'] * 1e6:6.1f} us   (build {alone['build'] * 1e6:.1f}, solve {alone['solve'] * 1e6:.1f})")

@@ -44,7 +44,7 @@ class DaggerRunner:
         if config.resume and not state_path.exists() and not LabelledDataset(self.run_dir / "data").shards_on_disk():
             raise ConfigError(f"nothing to resume in {self.run_dir} (no {TRAINING_STATE})")
         layout = ObservationLayout(config.env.history_length)
-        self.model = ActorCritic(layout.size, config.policy)
+        self.model = ActorCritic(layout.size, config.policy, seed=config.seed)
         self.action_space = ActionSpace()
         self.turn_accel_mps2 = teacher_command_limits().turn_accel_mps2
         """The teacher's turning limit: a distilled policy learned only commands its teacher followed."""

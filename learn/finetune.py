@@ -104,7 +104,7 @@ class FinetuneRunner:
         self.env_config = env
         self.action_space = ActionSpace()
         if cfg.method == "purerl" or cfg.init_policy is None:
-            self.model = ActorCritic(ObservationLayout(env.history_length).size, cfg.policy)
+            self.model = ActorCritic(ObservationLayout(env.history_length).size, cfg.policy, seed=cfg.seed)
             self._fresh_normalizer = True
         else:
             checkpoint = load_checkpoint(cfg.init_policy)

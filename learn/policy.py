@@ -60,13 +60,19 @@ class Normalizer(nn.Module):
 class ActorCritic(nn.Module):
     """Gaussian actor with a state-independent learnable log-std, and a value critic."""
 
-    def __init__(self, observation_size: int, config: PolicyConfig | None = None, action_size: int = ACTION_DIM) -> None:
+    def __init__(self, observation_size: int, config: PolicyConfig | None = None, action_size: int = ACTION_DIM,
+                 seed: int | None = None) -> None:
+        """`seed`: the initial weights are drawn from torch's generator seeded by it, and torch's global stream is
+        left as it was (None: drawn from that stream, so a run's seed does not fix them)."""
         super().__init__()
         self.config = config or PolicyConfig()
         self.observation_size, self.action_size = observation_size, action_size
         self.normalizer = Normalizer(observation_size)
-        self.actor = mlp((observation_size, *self.config.actor_hidden, action_size))
-        self.critic = mlp((observation_size, *self.config.critic_hidden, 1))
+        with torch.random.fork_rng(devices=[], enabled=seed is not None):
+            if seed is not None:
+                torch.manual_seed(seed)
+            self.actor = mlp((observation_size, *self.config.actor_hidden, action_size))
+            self.critic = mlp((observation_size, *self.config.critic_hidden, 1))
         self.log_std = nn.Parameter(torch.full((action_size,), self.config.init_log_std))
 
     def action_mean(self, observation: torch.Tensor) -> torch.Tensor:

@@ -53,11 +53,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-import proxsuite
 
 from mbc.errors import ConfigError
 from mbc.pin_robot import PinRobot
+from mbc.qp_solver_build import import_proxsuite
 from robots.digit import constants as digit
+
+proxsuite = import_proxsuite()  # the portable build unless MBC_QP_SOLVER_BUILD=simd (mbc.qp_solver_build)
 
 NV = 6 + digit.NUM_JOINTS
 NUM_CORNERS = 4

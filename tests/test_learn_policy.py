@@ -32,6 +32,17 @@ def test_normalizer_round_trip_and_statistics(rng):
     torch.testing.assert_close(normalizer.inverse(y), x, atol=1e-5, rtol=1e-5)
 
 
+def test_a_seed_fixes_the_initial_weights_and_leaves_torchs_global_stream_alone():
+    torch.manual_seed(123)
+    expected_next = torch.rand(3)
+    torch.manual_seed(123)
+    first, second, other = ActorCritic(10, seed=4), ActorCritic(10, seed=4), ActorCritic(10, seed=5)
+    assert torch.equal(torch.rand(3), expected_next)
+    weights = [model.state_dict() for model in (first, second, other)]
+    assert all(torch.equal(weights[0][name], weights[1][name]) for name in weights[0])
+    assert not torch.equal(weights[0]["actor.0.weight"], weights[2]["actor.0.weight"])  # another seed, other weights
+
+
 def test_checkpoint_round_trip_with_weights_only(tmp_path, rng):
     config = EnvConfig()
     model = ActorCritic(ObservationLayout(config.history_length).size)
