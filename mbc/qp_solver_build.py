@@ -53,13 +53,19 @@ def import_proxsuite() -> types.ModuleType:
             del sys.modules["proxsuite.instructionset"]
     import proxsuite
 
-    if portable and proxsuite._submodule.__name__ != "proxsuite.proxsuite_pywrap":
-        warnings.warn(f"proxsuite was imported before mbc, in its build {proxsuite._submodule.__name__}: the passivity "
-                      f"QP's results are not bitwise reproducible (mbc.qp_solver_build); import mbc first, or set "
-                      f"{BUILD_VARIABLE}=simd to accept that", stacklevel=2)
+    if portable and _build_name(proxsuite) != "proxsuite_pywrap":
+        warnings.warn(f"proxsuite runs its build {_build_name(proxsuite)}, not the portable one (imported before mbc, "
+                      f"or a proxsuite whose loader differs): the passivity QP's results are not bitwise reproducible "
+                      f"(mbc.qp_solver_build); import mbc first, or set {BUILD_VARIABLE}=simd to accept that",
+                      stacklevel=2)
     return proxsuite
+
+
+def _build_name(proxsuite: types.ModuleType) -> str:
+    """The compiled module proxsuite forwards to (proxsuite itself where it ships one build)."""
+    return getattr(proxsuite, "_submodule", proxsuite).__name__.rsplit(".", 1)[-1]
 
 
 def loaded_build() -> str:
     """The name of the proxsuite build this process runs ('proxsuite_pywrap' is the portable one)."""
-    return import_proxsuite()._submodule.__name__.rsplit(".", 1)[-1]
+    return _build_name(import_proxsuite())
