@@ -35,8 +35,8 @@ def test_learner_benchmark_prints_its_update_times():
                              "--repeats", "1", "--methods", "ppf", "--threads", "1"],
                             capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert result.returncode == 0, result.stderr
-    assert re.search(r"^\s+ppf\s+1\s+all\s+[\d.]+\s+\d+\s+1\.00x$", result.stdout, re.MULTILINE)
-    assert re.search(r"^\s+ppf\s+1\s+256\s+[\d.]+\s+\d+\s+[\d.]+x$", result.stdout, re.MULTILINE)
+    assert re.search(r"^\s+ppf\s+cpu\s+1\s+all\s+[\d.]+\s+\d+\s+1\.00x$", result.stdout, re.MULTILINE)
+    assert re.search(r"^\s+ppf\s+cpu\s+1\s+256\s+[\d.]+\s+\d+\s+[\d.]+x$", result.stdout, re.MULTILINE)
 
 
 def test_closed_chain_benchmark_prints_its_tables():
