@@ -9,7 +9,8 @@ measured by replaying one walk's QPs through fresh solvers; docs/design.md, "Kno
 aligns to 16 bytes only. A walker then diverges over an episode (a held climb drifted 12.8-21.2 deg from
 one run to the next, same seed), so evaluation figures near a threshold flip from run to run. The SSE2
 build's 16-byte vectors are always aligned that way, and it gave one outcome over 60 replays where the
-others gave two, at about 20% more time per solve (`benchmarks/bench_tick_parts.py` prints the build).
+others gave two; at this QP's size (30-42 variables) it solves as fast (`benchmarks/bench_tick_parts.py`, which
+prints the build: 36.4-36.9 us against AVX-512's 36.1-36.2 on an idle machine).
 
     MBC_QP_SOLVER_BUILD=portable   # default: SSE2, reproducible
     MBC_QP_SOLVER_BUILD=simd       # proxsuite's own choice (AVX-512 or AVX2 where the CPU has them)
