@@ -16,6 +16,7 @@ sample the Gaussian policy, and return log-probabilities and values; the expert 
 
 from __future__ import annotations
 
+import math
 import multiprocessing
 import time
 from abc import ABC, abstractmethod
@@ -93,7 +94,8 @@ class Rollout:
     last_values: np.ndarray
     """(n_envs,) V of the observation after the last tick."""
     episodes: list[dict] = field(default_factory=list)
-    """One record per episode that ended: return, length_s, distance_m, fell, terrain."""
+    """One record per episode that ended: return, length_s, distance_m, fell, heading_error_deg (the largest turn off
+    the commanded heading, `WalkEnv.largest_heading_error_rad`), terrain."""
     reward_terms: dict[str, float] = field(default_factory=dict)
     """Mean of each unweighted reward term per tick."""
     timing_s: dict[str, float] = field(default_factory=dict)
@@ -147,6 +149,7 @@ class EnvGroup:
         env = self.envs[k]
         distance = float(np.linalg.norm(env.state.base_pos[:2] - env.episode_start_xy))
         record = {"return": episode_return, "length_s": env.episode_time_s, "distance_m": distance, "fell": fell,
+                  "heading_error_deg": math.degrees(env.largest_heading_error_rad),
                   "terrain": env.terrain, "level": self.levels[k]}
         if self.curriculum is not None:
             record["kind"] = self._kind(k)

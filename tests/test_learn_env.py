@@ -12,6 +12,7 @@ from learn.observation import ObservationBuilder, ObservationLayout
 from learn.rewards import PAPER_WEIGHTS, RewardInputs, ang_vel_tracking, base_motion, lin_vel_tracking, reward_terms, torque
 from mbc.errors import ConfigError
 from mbc.fuzz import random_joint_positions, random_quaternion_wxyz
+from mbc.geometry import wrap_angle, yaw_of_quaternion
 from mbc.types import JointCommand, RobotState
 
 QUIET = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0))
@@ -119,6 +120,24 @@ def test_episode_terminates_on_a_fall_and_reports_monitors():
             break
     assert step.terminated and not step.truncated
     assert np.all(np.isfinite(env.monitors))
+
+
+def test_the_heading_error_is_measured_from_the_commanded_heading():
+    """psi_ref = psi_0 + sum(w_cmd dt); the expert turning on command stays near it, far from its first heading."""
+    env = WalkEnv(QUIET)
+    env.reset(seed=0)
+    first_yaw = env.reference_yaw_rad
+    env.command = np.array([0.0, 0.0, 0.4])
+    for _ in range(400):  # 2 s, before the command is first redrawn (after at least 2.5 s)
+        action, _ = env.label()
+        env.step(action)
+    assert env.reference_yaw_rad == pytest.approx(first_yaw + 0.4 * env.episode_time_s)
+    yaw = yaw_of_quaternion(env.state.base_quat)
+    turned = wrap_angle(yaw - first_yaw)
+    assert turned > 0.5
+    assert abs(wrap_angle(yaw - env.reference_yaw_rad)) <= env.largest_heading_error_rad < 0.5 * turned
+    env.reset(seed=1)
+    assert env.largest_heading_error_rad == 0.0
 
 
 def test_episode_truncates_at_its_length():

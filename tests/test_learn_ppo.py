@@ -339,15 +339,16 @@ def test_an_update_on_the_gpu_matches_the_same_update_on_the_cpu(rng):
         torch.testing.assert_close(gpu.cpu(), cpu, rtol=1e-3, atol=1e-4, msg=name)
 
 
-def test_the_iteration_scalars_count_falls_and_levels_per_terrain_kind():
+def test_the_iteration_scalars_count_falls_levels_and_turns_per_terrain_kind():
     from types import SimpleNamespace
 
-    episodes = [{"kind": "uphill", "level": 3, "fell": True}, {"kind": "uphill", "level": 5, "fell": False},
-                {"kind": "stairs", "level": 2, "fell": True}]
+    episodes = [{"kind": "uphill", "level": 3, "fell": True, "heading_error_deg": 40.0},
+                {"kind": "uphill", "level": 5, "fell": False, "heading_error_deg": 10.0},
+                {"kind": "stairs", "level": 2, "fell": True, "heading_error_deg": 5.0}]
     rollout = SimpleNamespace(episodes=episodes, reward_terms={"lin_vel_tracking": 0.5}, rewards=np.zeros(4), samples=4)
     scalars = FinetuneRunner._scalars(SimpleNamespace(forward_max=1.0, samples=4), rollout, {}, 1.0, 1.0)
     assert (scalars["rollout/falls"], scalars["rollout/episodes"]) == (2.0, 3.0)
-    uphill = ("rollout/falls_uphill", "rollout/episodes_uphill", "curriculum/level_uphill")
-    assert [scalars[name] for name in uphill] == [1.0, 2.0, 4.0]
+    uphill = ("rollout/falls_uphill", "rollout/episodes_uphill", "curriculum/level_uphill", "rollout/heading_error_deg_uphill")
+    assert [scalars[name] for name in uphill] == [1.0, 2.0, 4.0, 25.0]
     assert (scalars["rollout/falls_stairs"], scalars["rollout/episodes_stairs"]) == (1.0, 1.0)
     assert "rollout/falls_flat" not in scalars
