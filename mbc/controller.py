@@ -35,6 +35,7 @@ from mbc.assumptions import AssumptionReport, saturation
 from mbc.command_ramp import CommandRamp
 from mbc.errors import ConfigError
 from mbc.geometry import rotate_z, wrap_angle, yaw_of_quaternion, yaw_of_rotation
+from mbc.heading import HeadingSetpoint
 from mbc.ik import IkConfig, IkResult, IkTargets, WholeBodyIK
 from mbc.passivity import PassivityConfig, PassivityQp, QpResult
 from mbc.pd import position_target_for_torque
@@ -72,6 +73,13 @@ class AlipControllerConfig:
     """Largest lateral step; Digit's ALIP controllers clamp to [0.1, 0.6] m. Wide steps are what
     catches a sideways push (0.45 m caught 5 of 10 pushes of 100 N x 0.2 s, 0.6 m 9 of 10)."""
     max_turn_per_step_rad: float = 0.3
+    heading_correction_per_step_rad: float = 0.0
+    """Largest turn a step adds to w T to land the swing foot at the heading setpoint (`mbc.heading`: the commanded
+    yaw rate integrated), so that a zero yaw-rate command holds the heading [rad]. 0 (the default, the distilled
+    policies' teacher): each step turns w T from the stance foot, and what the feet slip in yaw stays; up an 8 m
+    incline of 14 deg that turned the MBC off the fall line and it fell on 3 of 5 seeds, 16 deg 5 of 5. At 0.1 it
+    climbed both 5/5, but fell on every step onto the slippery board under an operator's heading hold
+    (`step_slip_15`: 0/5 against 3/5): docs/design.md, "heading on inclines"."""
     command_rates: tuple[float, float, float] = (0.8, 0.8, 1.6)
     """Largest rate of change of the followed command: vx, vy [m/s^2], yaw rate [rad/s^2]
     (`mbc.command_ramp`; inf: none)."""
@@ -104,6 +112,9 @@ class AlipControllerConfig:
             raise ConfigError(f"nominal_com_height_m must be in (0.5, 1.2), got {self.nominal_com_height_m}")
         if not 0 < self.min_step_width_m <= self.step_width_m <= self.max_step_width_m:
             raise ConfigError("need 0 < min_step_width_m <= step_width_m <= max_step_width_m")
+        if self.heading_correction_per_step_rad < 0:
+            raise ConfigError(f"heading_correction_per_step_rad must be >= 0 (0: no heading hold), got "
+                              f"{self.heading_correction_per_step_rad}")
         if self.foot_placement not in ("one_step", "mpc"):
             raise ConfigError(f"foot_placement must be 'one_step' or 'mpc', got {self.foot_placement!r}")
         if self.output not in ("pd", "torque"):
@@ -166,6 +177,7 @@ class AlipController:
         self.ik = WholeBodyIK(cfg.ik, dt=self.dt)
         self.qp = PassivityQp(cfg.qp)
         self._ramp = CommandRamp(cfg.command_rates)
+        self.heading_setpoint = HeadingSetpoint()
         self.reach = StepReach(cfg.max_step_length_m, cfg.min_step_width_m, cfg.max_step_width_m)
         self.mpc = AlipMpc(self.alip, cfg.mpc, self.reach, cfg.timing) if cfg.foot_placement == "mpc" else None
         self._kp, self._kd = np.asarray(cfg.kp, float).tolist(), np.asarray(cfg.kd, float).tolist()
@@ -225,6 +237,8 @@ class AlipController:
             self._plan_weight_shift(state)
         q = np.asarray(state.q, dtype=float)
         self._last_q_des = np.where(np.isfinite(q), q, digit.Q_STAND)
+        if self._plausible_state(state):
+            self.heading_setpoint.reset(yaw_of_quaternion(state.base_quat), state.time)
         self._ramp.reset()
         self.qp.reset()
         if self.mpc is not None:
@@ -266,6 +280,7 @@ class AlipController:
         stance = clock.stance
         stance_sole, stance_rotation = robot.sole_pose(stance)
         heading = yaw_of_quaternion(state.base_quat)
+        heading_ref = self.heading_setpoint.update(heading, state.time, command[2])
         alip = alip_state(robot, stance_sole, heading)  # 2. ALIP state about the stance sole
         ground_normal = self._ground_normal(stance_rotation)
         if clock.shifting_weight:  # before the first step: both feet down, the CoM rocked onto the gait's orbit
@@ -273,7 +288,8 @@ class AlipController:
             targets = self._weight_shift_targets(stance_sole, stance_rotation, ground_normal)
         else:
             landing = self._landing_point(alip, command, stance, stance_sole, ground_normal, heading)  # 3. placement
-            targets = self._ik_targets(state, command, landing, stance_sole, stance_rotation, ground_normal)  # 4. swing
+            targets = self._ik_targets(state, command, landing, stance_sole, stance_rotation, ground_normal,
+                                       heading_ref)  # 4. swing
         t_alip = time.perf_counter()
         ik = self.ik.solve(robot.q, targets)  # 5. whole-body IK
         t_ik = time.perf_counter()
@@ -305,14 +321,21 @@ class AlipController:
         return np.array([sole_x + offset_x, sole_y + offset_y, sole_z - (nx * offset_x + ny * offset_y) / nz])
 
     def _ik_targets(self, state: RobotState, command: tuple[float, float, float], landing: np.ndarray,
-                    stance_sole: np.ndarray, stance_rotation: np.ndarray, ground_normal: np.ndarray) -> IkTargets:
-        """The swing sole's reference one tick ahead and the IK's other targets."""
+                    stance_sole: np.ndarray, stance_rotation: np.ndarray, ground_normal: np.ndarray,
+                    heading_ref: float) -> IkTargets:
+        """The swing sole's reference one tick ahead and the IK's other targets. The swing foot lands turned from
+        the stance foot by w T, plus at most `heading_correction_per_step_rad` toward psi_ref + w (1 - phase) T (the
+        heading setpoint at touchdown), at most `max_turn_per_step_rad` in all."""
         cfg, clock = self.config, self.clock
         swing_sole, swing_rotation = self.robot.sole_pose(clock.swing)
         swing_position, swing_velocity = swing_reference(swing_sole, landing, clock.phase, self.dt / clock.step_duration_s,
                                                          clock.step_duration_s, cfg.swing)
         stance_yaw, swing_yaw_now = yaw_of_rotation(stance_rotation), yaw_of_rotation(swing_rotation)
-        turn = min(max(command[2] * cfg.timing.step_duration_s, -cfg.max_turn_per_step_rad), cfg.max_turn_per_step_rad)
+        turn = command[2] * cfg.timing.step_duration_s
+        if cfg.heading_correction_per_step_rad > 0:  # the setpoint at touchdown, relative to that turn
+            error = wrap_angle(heading_ref + command[2] * (1.0 - clock.phase) * clock.step_duration_s - stance_yaw - turn)
+            turn += min(max(error, -cfg.heading_correction_per_step_rad), cfg.heading_correction_per_step_rad)
+        turn = min(max(turn, -cfg.max_turn_per_step_rad), cfg.max_turn_per_step_rad)
         return IkTargets(
             stance=clock.stance, swing_position=swing_position, swing_velocity=swing_velocity,
             swing_yaw=stance_yaw + turn,  # the landing yaw: the light foot turns early in the swing

@@ -9,7 +9,7 @@ import pytest
 from mbc.controller import AlipController
 from mbc.errors import ConfigError
 from mbc.fuzz import random_robot_state
-from mbc.rollout import Push, run_episode
+from mbc.rollout import Push, perturbed_stand, run_episode
 from mbc.sim import DigitSim
 from mbc.types import Command
 from robots.digit import constants as digit
@@ -38,6 +38,18 @@ def test_mpc_foot_placement_walks():
     assert not episode.fell and controller.fallback_count == 0
     assert episode.summary(since_s=1.5)["mean_vx_mps"] == pytest.approx(0.3, abs=0.05)
     assert sum(d.touchdown for d in episode.diagnostics) >= 6
+
+
+@pytest.mark.parametrize("correction_rad", [0.1, 0.0])
+def test_a_zero_yaw_rate_holds_the_heading_up_a_steep_incline(correction_rad):
+    """Up 14 deg the feet slip in yaw; landing the swing foot toward the heading setpoint keeps the walker on the fall
+    line, where turning each step from the stance foot (the default) drifts (15 deg in 16 s on this seed)."""
+    sim = DigitSim("slope", seed=2, angle_deg=14.0, run_up_m=1.5, length_m=8.0)
+    controller = AlipController.for_digit(heading_correction_per_step_rad=correction_rad)
+    episode = run_episode(sim, controller, Command(0.5), 16.0, state=perturbed_stand(sim, 2))
+    assert not episode.fell and episode.arrays("base_pos")[-1, 0] > 6.0  # 4.5 m up the incline
+    largest_drift_deg = np.degrees(np.abs(episode.yaw()).max())
+    assert (largest_drift_deg < 5.0) if correction_rad else (largest_drift_deg > 10.0)
 
 
 def test_survives_a_lateral_push_mid_stance(controller):

@@ -292,3 +292,14 @@ def test_incline_reports_heading_drift_and_its_held_variant_steers_up_the_fall_l
     # reaches 20.2 deg with the portable QP build (12.8-21.2 deg over repeated runs with proxsuite's AVX builds,
     # docs/design.md "Known limits"), so the bound allows for other machines and still lies far below the free 45+
     assert held["success"] and 11.0 < held["heading_drift_deg"] < 25.0
+
+
+def test_the_long_incline_is_climbed_to_its_crest_8_m_up():
+    from learn.evaluate.protocols import _RUNNERS, LONG_INCLINE_M, parse_protocol
+    from mbc.controller import AlipController
+
+    assert parse_protocol("uphill_long_14") == ("uphill_long", 14.0)
+    assert parse_protocol("uphill_long_hold_16") == ("uphill_long_hold", 16.0)
+    assert LONG_INCLINE_M == 8.0
+    climb = _RUNNERS["uphill_long_hold"](AlipController.for_digit(), 8.0, 0, get_shift("nominal"))
+    assert climb["success"] and climb["heading_drift_deg"] < 5.0  # over the crest, 9.5 m from the start

@@ -13,6 +13,9 @@ Protocol names (parametric ones take a number after the last underscore); what r
   turns across the slope climbs a gentler grade, and may fall sideways).
 * `uphill_hold_A`, `downhill_hold_A`: the same with heading hold (the courses' yaw correction, as an operator
   steering up the fall line would): what of an incline's failures is the heading's.
+* `uphill_long_A`, `uphill_long_hold_A`: the same up an 8 m incline, 40 s: a slow turn off the fall line that
+  the 5 m incline (and training's) hides shows here (the MBC without its heading hold climbed 5 m of 14 deg and
+  fell on 8).
 * `uneven_C`: 0.4 m/s for 20 s over bumps of C cm; no fall; distance [m].
 * `step_slip_F`: the paper's step-and-slip hardware test: 0.3 m/s with heading hold onto and across a 2 cm board
   of friction F / 100 (`step_slip_15`: 0.15, a whiteboard with poppy seeds or oil) 1.5 m ahead, 1.5 m long;
@@ -51,7 +54,8 @@ from mbc.sim import DigitSim
 from mbc.types import Command, Controller, JointCommand, RobotState
 
 FIXED = ("flat", "max_velocity", "mar", "gait", "sand")
-PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uphill_hold": "A deg", "downhill_hold": "A deg", "uneven": "C cm",
+PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uphill_hold": "A deg", "downhill_hold": "A deg",
+              "uphill_long": "A deg", "uphill_long_hold": "A deg", "uneven": "C cm",
               "step_slip": "F friction / 100",
               "course_slope": "L levels", "course_uneven": "L levels", "course_mixed": "L levels", "course": "L levels",
               "random_velocity": "N trajectories"}
@@ -59,7 +63,8 @@ OPTIONAL_NUMBER = ("course_slope", "course_uneven", "course_mixed", "course", "r
 DEFAULT_PROTOCOLS = ("flat", "course_slope", "course_uneven", "uphill_10", "uphill_12", "uphill_14", "uphill_16",
                      "uphill_18", "uphill_20", "uphill_22", "downhill_8", "downhill_10", "downhill_12", "downhill_14",
                      "uneven_4", "step_slip_15", "sand", "random_velocity", "max_velocity", "mar", "gait")
-RUN_UP_M, INCLINE_M = 1.5, 5.0
+RUN_UP_M, INCLINE_M, LONG_INCLINE_M = 1.5, 5.0, 8.0
+INCLINE_S, LONG_INCLINE_S = 30.0, 40.0
 BOARD_HEIGHT_M, BOARD_LENGTH_M, STEP_SLIP_SPEED_MPS = 0.02, 1.5, 0.3
 COURSE_LEVELS, COURSE_S_PER_LEVEL, COURSE_SPEED_MPS = 8, 130.0 / 8, 0.6
 COURSE_MAX = {"slope": {"max_slope_deg": 20.0}, "uneven": {"max_amplitude": 0.06},
@@ -181,15 +186,15 @@ def _course(kind: str):
     return run
 
 
-def _incline(sign: int, hold_heading: bool = False):
+def _incline(sign: int, hold_heading: bool = False, length_m: float = INCLINE_M, duration_s: float = INCLINE_S):
     def run(controller, angle, seed, shift) -> dict:
         sim, shifted, state = _start("slope", seed, shift, controller, angle_deg=sign * angle, run_up_m=RUN_UP_M,
-                                     length_m=INCLINE_M)
+                                     length_m=length_m)
         walker = HeadingHold(shifted) if hold_heading else shifted
-        episode = run_episode(sim, walker, Command(0.5), 30.0, state=state)
+        episode = run_episode(sim, walker, Command(0.5), duration_s, state=state)
         x = episode.arrays("base_pos")[:, 0]
-        error = incline_speed_error_pct(episode, RUN_UP_M + 0.5, RUN_UP_M + INCLINE_M - 0.5, 0.5)
-        return {"success": bool(not episode.fell and x.max() > RUN_UP_M + INCLINE_M), "fell": episode.fell,
+        error = incline_speed_error_pct(episode, RUN_UP_M + 0.5, RUN_UP_M + length_m - 0.5, 0.5)
+        return {"success": bool(not episode.fell and x.max() > RUN_UP_M + length_m), "fell": episode.fell,
                 "metric": error, "heading_drift_deg": float(np.degrees(np.abs(episode.yaw()).max()))}
     return run
 
@@ -329,5 +334,8 @@ def _gait(controller, _, seed, shift) -> dict:
 _RUNNERS = {"flat": _flat, "course_slope": _course("slope"), "course_uneven": _course("uneven"),
             "course_mixed": _course("mixed"), "course": _course("mixed"), "uphill": _incline(1),
             "downhill": _incline(-1), "uphill_hold": _incline(1, hold_heading=True),
-            "downhill_hold": _incline(-1, hold_heading=True), "uneven": _uneven, "random_velocity": _random_velocity,
+            "downhill_hold": _incline(-1, hold_heading=True),
+            "uphill_long": _incline(1, length_m=LONG_INCLINE_M, duration_s=LONG_INCLINE_S),
+            "uphill_long_hold": _incline(1, hold_heading=True, length_m=LONG_INCLINE_M, duration_s=LONG_INCLINE_S),
+            "uneven": _uneven, "random_velocity": _random_velocity,
             "max_velocity": _max_velocity, "mar": _mar, "gait": _gait, "step_slip": _step_slip, "sand": _sand}
