@@ -205,7 +205,9 @@ class FinetuneRunner:
             scalars[f"curriculum/level_{kind}"] = float(np.mean([e["level"] for e in ended]))
             scalars[f"rollout/falls_{kind}"] = float(sum(e["fell"] for e in ended))
             scalars[f"rollout/episodes_{kind}"] = float(len(ended))
-            scalars[f"rollout/heading_error_deg_{kind}"] = float(np.mean([e["heading_error_deg"] for e in ended]))
+            upright = [e["heading_error_deg"] for e in ended if not e["fell"]]  # a fall's own spin is not a turn
+            if upright:
+                scalars[f"rollout/heading_error_deg_{kind}"] = float(np.mean(upright))
         return scalars
 
     def _checkpoint(self, iteration: int) -> None:

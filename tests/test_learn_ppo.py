@@ -349,6 +349,7 @@ def test_the_iteration_scalars_count_falls_levels_and_turns_per_terrain_kind():
     scalars = FinetuneRunner._scalars(SimpleNamespace(forward_max=1.0, samples=4), rollout, {}, 1.0, 1.0)
     assert (scalars["rollout/falls"], scalars["rollout/episodes"]) == (2.0, 3.0)
     uphill = ("rollout/falls_uphill", "rollout/episodes_uphill", "curriculum/level_uphill", "rollout/heading_error_deg_uphill")
-    assert [scalars[name] for name in uphill] == [1.0, 2.0, 4.0, 25.0]
+    assert [scalars[name] for name in uphill] == [1.0, 2.0, 4.0, 10.0]  # the turn of the episode that did not fall
+    assert "rollout/heading_error_deg_stairs" not in scalars  # its only episode fell
     assert (scalars["rollout/falls_stairs"], scalars["rollout/episodes_stairs"]) == (1.0, 1.0)
     assert "rollout/falls_flat" not in scalars
