@@ -41,6 +41,7 @@ from learn.swing_reward import SwingFootReference
 from mbc.controller import AlipControllerConfig
 from mbc.errors import ConfigError, MbcError
 from mbc.geometry import rotate_inverse, wrap_angle, yaw_of_quaternion
+from mbc.heading import HeadingSetpoint
 from mbc.sim import DigitSim, DomainParams
 from mbc.timing import LEFT, RIGHT
 from mbc.types import RobotState
@@ -117,8 +118,8 @@ class WalkEnv:
         self.observation = np.zeros(self.builder.layout.size)
         self.monitors = np.zeros(len(MONITOR_NAMES))
         self.episode_start_s = 0.0
-        self.reference_yaw_rad = 0.0
-        """The episode's first heading advanced by the commanded yaw rates, psi_ref = psi_0 + sum(w_cmd dt) [rad]."""
+        self.commanded_heading = HeadingSetpoint(max_error_rad=math.pi)
+        """The episode's first heading advanced by the commanded yaw rates, psi_ref = psi_0 + sum(w_cmd dt) (unbounded)."""
         self.largest_heading_error_rad = 0.0
         """max |wrap(psi - psi_ref)| over the episode so far: how far the walker turned off its commanded heading
         (the fine-tunings' turn up inclines, docs/design.md) [rad]."""
@@ -152,8 +153,10 @@ class WalkEnv:
         self.state = self.sim.state()
         self.episode_start_s = self.state.time
         self.episode_start_xy = self.state.base_pos[:2].copy()
-        self.reference_yaw_rad, self.largest_heading_error_rad = yaw_of_quaternion(self.state.base_quat), 0.0
         self.command = self._sample_command()
+        self.commanded_heading.reset(yaw_of_quaternion(self.state.base_quat), self.state.time)
+        self.commanded_heading.update(yaw_of_quaternion(self.state.base_quat), self.state.time, self.command[2])
+        self.largest_heading_error_rad = 0.0
         self._next_command_s = rng.uniform(*self.command_sampling.resample_interval_s)
         self._air_time_s, self._in_contact = np.zeros(2), self.state.contact.copy()
         self._earlier_actions = [np.zeros(ACTION_DIM), np.zeros(ACTION_DIM)]
@@ -218,8 +221,6 @@ class WalkEnv:
         command = self.command
         self.state = state = self.sim.step(self.action_space.to_command(action, self.state))
         yaw = yaw_of_quaternion(state.base_quat)
-        self.reference_yaw_rad += command[2] * (self.episode_time_s - t)
-        self.largest_heading_error_rad = max(self.largest_heading_error_rad, abs(wrap_angle(yaw - self.reference_yaw_rad)))
         cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
         vx, vy = state.base_linvel[0], state.base_linvel[1]
         terms = reward_terms(RewardInputs(
@@ -235,6 +236,8 @@ class WalkEnv:
         if self.episode_time_s >= self._next_command_s:
             self.command = self._sample_command()
             self._next_command_s += self.rng.uniform(*self.command_sampling.resample_interval_s)
+        reference = self.commanded_heading.update(yaw, state.time, self.command[2])  # advanced by this tick's command
+        self.largest_heading_error_rad = max(self.largest_heading_error_rad, abs(wrap_angle(yaw - reference)))
         self.builder.record_action(action)
         self.observation = self._observe()  # (the gait clock advances to the new state)
         if cfg.purerl_rewards:  # of this tick's command, at the new state

@@ -280,7 +280,8 @@ class AlipController:
         stance = clock.stance
         stance_sole, stance_rotation = robot.sole_pose(stance)
         heading = yaw_of_quaternion(state.base_quat)
-        heading_ref = self.heading_setpoint.update(heading, state.time, command[2])
+        heading_ref = (self.heading_setpoint.update(heading, state.time, command[2])
+                       if self.config.heading_correction_per_step_rad > 0 else heading)
         alip = alip_state(robot, stance_sole, heading)  # 2. ALIP state about the stance sole
         ground_normal = self._ground_normal(stance_rotation)
         if clock.shifting_weight:  # before the first step: both feet down, the CoM rocked onto the gait's orbit

@@ -126,16 +126,18 @@ def test_the_heading_error_is_measured_from_the_commanded_heading():
     """psi_ref = psi_0 + sum(w_cmd dt); the expert turning on command stays near it, far from its first heading."""
     env = WalkEnv(QUIET)
     env.reset(seed=0)
-    first_yaw = env.reference_yaw_rad
+    first_yaw = yaw_of_quaternion(env.state.base_quat)
     env.command = np.array([0.0, 0.0, 0.4])
+    env.commanded_heading.update(first_yaw, env.state.time, 0.4)  # the command from the first tick on
     for _ in range(400):  # 2 s, before the command is first redrawn (after at least 2.5 s)
         action, _ = env.label()
         env.step(action)
-    assert env.reference_yaw_rad == pytest.approx(first_yaw + 0.4 * env.episode_time_s)
+    reference = env.commanded_heading.heading_rad
+    assert reference == pytest.approx(first_yaw + 0.4 * env.episode_time_s)
     yaw = yaw_of_quaternion(env.state.base_quat)
     turned = wrap_angle(yaw - first_yaw)
     assert turned > 0.5
-    assert abs(wrap_angle(yaw - env.reference_yaw_rad)) <= env.largest_heading_error_rad < 0.5 * turned
+    assert abs(wrap_angle(yaw - reference)) <= env.largest_heading_error_rad < 0.5 * turned
     env.reset(seed=1)
     assert env.largest_heading_error_rad == 0.0
 
