@@ -73,6 +73,10 @@ class Args:
     """delta_omega of the yaw-rate tracking reward exp(-(w_z - w_z_cmd)^2 / delta) [(rad/s)^2] (default 0.25, the paper's).
     At 0.05 PPF did not keep its heading up 14 deg over three training seeds (5/5, 4/5, 0/5 without a hold; 1/5,
     3/5, 2/5 at 0.25): docs/evaluation.md, "A sharper yaw-rate kernel"."""
+    heading_hold: float = 0.0
+    """The expert's heading correction per step [rad] (`AlipControllerConfig.heading_correction_per_step_rad`), and the
+    policy observes its heading error to the integrated yaw-rate command (0: neither, the shipped policies). Needs
+    --stage all: the shipped distilled policy does not observe it."""
     seed: int = 0
     device: str = "cpu"
     """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
@@ -84,12 +88,14 @@ def main(args: Args) -> None:
     if args.evaluation_seeds < 0:
         raise ConfigError(f"--evaluation-seeds must be >= 0 (0: skip the comparison), got {args.evaluation_seeds}")
     output_directory(args.run_dir, "--run-dir")
+    heading = {"observe_heading_error": args.heading_hold > 0, "expert_heading_correction_per_step_rad": args.heading_hold}
     init = DISTILLED
     if args.stage == "all":
         distill_dir = args.run_dir / "distill"
         resume = args.resume and (distill_dir / "training_state.pt").exists()
         init = DaggerRunner(DistillConfig(run_dir=distill_dir, seed=args.seed, resume=resume, workers=args.workers,
-                                          device=args.device)).learn()
+                                          device=args.device,
+                                          env=dataclasses.replace(DistillConfig().env, **heading))).learn()
     iterations = args.iterations if args.iterations is not None else {"default": FinetuneConfig.iterations,
                                                                        "paper": 10_000}[args.preset]
     finetune_dir = args.run_dir / "finetune"
@@ -98,7 +104,7 @@ def main(args: Args) -> None:
                                                                           TerrainCurriculum.initial_max_level)
     ppo = PpoConfig(gamma=args.gamma if args.gamma is not None else (SCRATCH_GAMMA if scratch else PpoConfig.gamma),
                     lam=args.lam if args.lam is not None else (SCRATCH_LAM if scratch else PpoConfig.lam))
-    env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock)
+    env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock, **heading)
     if args.yaw_rate_sigma is not None:
         env = dataclasses.replace(env, ang_vel_tracking_sigma=args.yaw_rate_sigma)
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init, env=env,

@@ -25,12 +25,14 @@ SCALARS = "scalars.jsonl"
 
 def deployable_checkpoint(model: ActorCritic, env: EnvConfig, action_space: ActionSpace,
                           turn_accel_mps2: float = math.inf, **extra) -> dict:
-    """The networks, history length, gait clock, PD gains, trained command range and turning limit |v_xy| |yaw rate|
-    [m/s^2] (inf: none), plus `extra` (iteration, samples, wall time, method)."""
+    """The networks, history length, gait clock, whether the heading error is observed, PD gains, trained command
+    range and turning limit |v_xy| |yaw rate| [m/s^2] (inf: none), plus `extra` (iteration, samples, wall time,
+    method)."""
     sampling = env.commands
     command_range = [[sampling.vx_mps[0], sampling.vy_mps[0], sampling.yaw_rate_radps[0]],
                      [sampling.vx_mps[1], sampling.vy_mps[1], sampling.yaw_rate_radps[1]]]
-    return model.checkpoint(history_length=env.history_length, gait_clock=env.gait_clock, kp=action_space.kp.tolist(),
+    return model.checkpoint(history_length=env.history_length, gait_clock=env.gait_clock,
+                            observe_heading_error=env.observe_heading_error, kp=action_space.kp.tolist(),
                             kd=action_space.kd.tolist(),
                             command_range=command_range, turn_accel_mps2=float(turn_accel_mps2), **extra)
 

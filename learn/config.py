@@ -133,6 +133,13 @@ class EnvConfig:
     gait_clock: str = "contact"
     """The observation's gait clock, one of `GAIT_CLOCKS`: 'contact' (the expert's; a distilled policy's) or
     'time' (a step lasts its duration whatever the feet do: a stand misses the contact schedule all step long)."""
+    observe_heading_error: bool = False
+    """Add the heading error psi - psi_ref to the observation (`learn.observation`): psi_ref is the episode's first
+    heading advanced by the commanded yaw rate. Without it a policy cannot tell a slow turn off its command from a
+    held heading (the fine-tunings turn off the fall line up inclines: docs/design.md, "heading on inclines")."""
+    expert_heading_correction_per_step_rad: float = 0.0
+    """The expert's `AlipControllerConfig.heading_correction_per_step_rad` (0: the shipped teacher, rate only). A
+    holding expert needs `observe_heading_error`: its student cannot imitate a correction to an error it cannot see."""
     lin_vel_tracking_sigma: float = 0.25
     """delta_xy of the linear velocity tracking reward exp(-|v - v_cmd|^2 / delta) [(m/s)^2]."""
     ang_vel_tracking_sigma: float = 0.25
@@ -144,6 +151,11 @@ class EnvConfig:
         _require(0 < self.tilt_limit_rad < 1.5, f"tilt_limit_rad must be in (0, 1.5), got {self.tilt_limit_rad}")
         _require(self.history_length >= 0, f"history_length must be >= 0, got {self.history_length}")
         _require(self.gait_clock in GAIT_CLOCKS, f"unknown gait_clock {self.gait_clock!r}; choose from {GAIT_CLOCKS}")
+        _require(self.expert_heading_correction_per_step_rad >= 0, "expert_heading_correction_per_step_rad must be >= 0, "
+                 f"got {self.expert_heading_correction_per_step_rad}")
+        _require(self.observe_heading_error or self.expert_heading_correction_per_step_rad == 0,
+                 "an expert that holds its heading (expert_heading_correction_per_step_rad > 0) needs "
+                 "observe_heading_error: the student must see the error the expert corrects")
         for name in ("lin_vel_tracking_sigma", "ang_vel_tracking_sigma"):
             _require(getattr(self, name) > 0, f"{name} must be positive, got {getattr(self, name)}")
 

@@ -24,7 +24,7 @@ from learn.config import DistillConfig
 from learn.console import append_scalars, iteration_line, number
 from learn.dagger import DaggerFit, cosine_learning_rate, usable_labels
 from learn.expert import teacher_command_limits
-from learn.observation import ObservationLayout
+from learn.observation import observation_layout
 from learn.policy import ActorCritic, learner_device
 from learn.storage import LabelledDataset, output_directory
 from learn.vec_env import RolloutRequest, VecEnv, rollout_seed, vec_env_for
@@ -43,7 +43,7 @@ class DaggerRunner:
             raise ConfigError(f"{self.run_dir} already holds a run; pass --resume to continue it or choose another run_dir")
         if config.resume and not state_path.exists() and not LabelledDataset(self.run_dir / "data").shards_on_disk():
             raise ConfigError(f"nothing to resume in {self.run_dir} (no {TRAINING_STATE})")
-        layout = ObservationLayout(config.env.history_length)
+        layout = observation_layout(config.env)
         self.model = ActorCritic(layout.size, config.policy, seed=config.seed)
         self.action_space = ActionSpace()
         self.turn_accel_mps2 = teacher_command_limits().turn_accel_mps2

@@ -104,8 +104,10 @@ class WalkEnv:
         self.terrain = ""
         self.set_terrain(config.terrains[index % len(config.terrains)])
         self.action_space = ActionSpace(self.sim.kp, self.sim.kd)
-        self.expert = Expert(self.action_space) if with_expert else None
-        self.builder = ObservationBuilder(config.history_length, gait_timing(config.gait_clock))
+        self.expert = (Expert(self.action_space, heading_correction_per_step_rad=config.expert_heading_correction_per_step_rad)
+                       if with_expert else None)
+        self.builder = ObservationBuilder(config.history_length, gait_timing(config.gait_clock),
+                                          config.observe_heading_error)
         self.rng = np.random.default_rng(index)
         self.forward_command_max_mps = config.commands.vx_mps[1]
         """Upper end of the forward commands of `config.commands` (the velocity curriculum widens it)."""

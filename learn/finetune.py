@@ -25,8 +25,8 @@ from learn.checkpoints import POLICY, SCALARS, TRAINING_STATE, deployable_checkp
 from learn.config import EnvConfig, PolicyConfig, WorkerConfig, paper_randomization
 from learn.console import append_scalars, iteration_line, number
 from learn.curriculum import TerrainCurriculum, VelocityCurriculum
-from learn.observation import ObservationLayout
-from learn.policy import ActorCritic, check_gains, gait_clock_of, learner_device, load_checkpoint
+from learn.observation import observation_layout
+from learn.policy import ActorCritic, check_gains, check_observation, learner_device, load_checkpoint
 from learn.ppo import METHODS, PAPER_MONITORS, Method, Ppo, PpoConfig, RegularizerConfig, method_regularizer
 from learn.storage import output_directory
 from learn.vec_env import RolloutRequest, rollout_seed, vec_env_for
@@ -104,14 +104,12 @@ class FinetuneRunner:
         self.env_config = env
         self.action_space = ActionSpace()
         if cfg.method == "purerl" or cfg.init_policy is None:
-            self.model = ActorCritic(ObservationLayout(env.history_length).size, cfg.policy, seed=cfg.seed)
+            self.model = ActorCritic(observation_layout(env).size, cfg.policy, seed=cfg.seed)
             self._fresh_normalizer = True
         else:
             checkpoint = load_checkpoint(cfg.init_policy)
             check_gains(checkpoint, self.action_space.kp, self.action_space.kd, "this fine-tuning's action space")
-            if gait_clock_of(checkpoint) != env.gait_clock:
-                raise ConfigError(f"{cfg.init_policy} observes the {gait_clock_of(checkpoint)!r} gait clock; this "
-                                  f"fine-tuning's environment has {env.gait_clock!r}")
+            check_observation(checkpoint, env, cfg.init_policy)
             self.model = ActorCritic.from_checkpoint(checkpoint)
             self._fresh_normalizer = False
         with torch.no_grad():
@@ -125,10 +123,7 @@ class FinetuneRunner:
 
     def _restore(self, path: Path) -> None:
         state = torch.load(path, map_location="cpu", weights_only=True)
-        trained_on = gait_clock_of(state["policy"])
-        if trained_on != self.env_config.gait_clock:
-            raise ConfigError(f"{path} was trained on the {trained_on!r} gait clock; resume it with that clock, "
-                              f"not {self.env_config.gait_clock!r}")
+        check_observation(state["policy"], self.env_config, path)
         self.model.load_state_dict(state["policy"]["state_dict"])
         self.ppo.optimizer.load_state_dict(state["optimizer"])
         self.ppo.learning_rate = float(state["learning_rate"])

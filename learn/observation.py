@@ -4,7 +4,9 @@ Layout (`ObservationLayout`, in order): base linear and angular velocity in the 
 gravity, command (vx, vy, yaw rate), leg joint positions and velocities, gait clock features (sin and
 cos of the two-step phase, stance one-hot) from a `GaitClock` fed time and contacts, the previous
 action, and the leg joint positions and velocities of the last `history_length` ticks (most recent
-first). Privileged quantities (the expert's action, the assumption monitors) are never in it.
+first); optionally last, the heading error wrap(psi - psi_ref) [rad] to the commanded yaw rate integrated
+(`mbc.heading.HeadingSetpoint`, within +-0.5 rad), which a heading-holding expert steers by. Privileged
+quantities (the expert's action, the assumption monitors) are never in it.
 """
 
 from __future__ import annotations
@@ -15,9 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from learn.action import ACTION_DIM
-from learn.config import GAIT_CLOCKS
+from learn.config import GAIT_CLOCKS, EnvConfig
 from mbc.errors import ConfigError
-from mbc.geometry import rotate_inverse
+from mbc.geometry import rotate_inverse, wrap_angle, yaw_of_quaternion
+from mbc.heading import HeadingSetpoint
 from mbc.timing import LEFT, RIGHT, GaitClock, TimingConfig, is_standing
 from mbc.types import RobotState
 from robots.digit.constants import NUM_JOINTS
@@ -39,12 +42,15 @@ class ObservationLayout:
     """Names and sizes of the observation's parts, in order."""
 
     history_length: int
+    heading_error: bool = False
+    """Whether the heading error to the integrated yaw-rate command is the last part."""
 
     @property
     def parts(self) -> tuple[tuple[str, int], ...]:
         return (("base_linvel", 3), ("base_angvel", 3), ("projected_gravity", 3), ("command", 3),
                 ("q", NUM_JOINTS), ("qd", NUM_JOINTS), ("gait", GAIT_FEATURES), ("previous_action", ACTION_DIM),
-                ("q_history", NUM_JOINTS * self.history_length), ("qd_history", NUM_JOINTS * self.history_length))
+                ("q_history", NUM_JOINTS * self.history_length), ("qd_history", NUM_JOINTS * self.history_length),
+                *((("heading_error", 1),) if self.heading_error else ()))
 
     @property
     def size(self) -> int:
@@ -59,12 +65,19 @@ class ObservationLayout:
         raise KeyError(f"no observation part {name!r}; parts: {[p for p, _ in self.parts]}")
 
 
+def observation_layout(env: EnvConfig) -> ObservationLayout:
+    """The layout a policy of environment `env` observes."""
+    return ObservationLayout(env.history_length, env.observe_heading_error)
+
+
 class ObservationBuilder:
     """Keeps what the observation needs across ticks (gait clock, joint history, previous action)."""
 
-    def __init__(self, history_length: int, timing: TimingConfig | None = None) -> None:
-        self.layout = ObservationLayout(history_length)
+    def __init__(self, history_length: int, timing: TimingConfig | None = None, heading_error: bool = False) -> None:
+        self.layout = ObservationLayout(history_length, heading_error)
         self.clock = GaitClock(timing)
+        self.heading_setpoint = HeadingSetpoint()
+        """psi_ref, as a heading-holding `AlipController` integrates it (used with `layout.heading_error`)."""
         self._q_history: deque[np.ndarray] = deque(maxlen=history_length)
         self._qd_history: deque[np.ndarray] = deque(maxlen=history_length)
         self.previous_action = np.zeros(ACTION_DIM)
@@ -84,6 +97,7 @@ class ObservationBuilder:
             self._qd_history.append(state.qd.copy())
         self._last_q, self._last_qd = state.q.copy(), state.qd.copy()
         self.previous_action = np.zeros(ACTION_DIM)
+        self.heading_setpoint.reset(yaw_of_quaternion(state.base_quat), state.time)
 
     def observe(self, state: RobotState, command: np.ndarray) -> np.ndarray:
         """(layout.size,) the observation of `state`; advances the clock and the history by one tick."""
@@ -96,6 +110,10 @@ class ObservationBuilder:
         parts = [rotate_inverse(quat, state.base_linvel), rotate_inverse(quat, state.base_angvel),
                  rotate_inverse(quat, np.array([0.0, 0.0, -1.0])), np.asarray(command, float), state.q, state.qd,
                  self.clock.observation(), self.previous_action, *self._q_history, *self._qd_history]
+        if self.layout.heading_error:
+            heading = yaw_of_quaternion(quat)
+            reference = self.heading_setpoint.update(heading, state.time, float(command[2]))
+            parts.append(np.array([wrap_angle(heading - reference)]))
         return np.concatenate(parts)
 
     def record_action(self, action: np.ndarray) -> None:

@@ -17,7 +17,7 @@ import torch
 from torch import nn
 
 from learn.action import ACTION_DIM, ActionSpace
-from learn.config import PolicyConfig
+from learn.config import EnvConfig, PolicyConfig
 from learn.observation import ObservationBuilder, gait_timing
 from mbc.errors import ConfigError
 from mbc.types import CONTROL_PERIOD_S, Command, CommandLimits, JointCommand, RobotState
@@ -152,6 +152,24 @@ def gait_clock_of(checkpoint: dict) -> str:
     return str(checkpoint.get("gait_clock", "contact"))
 
 
+def observes_heading_error(checkpoint: dict) -> bool:
+    """Whether a checkpoint's policy observes its heading error (`learn.observation`); False for checkpoints
+    written before the key existed."""
+    return bool(checkpoint.get("observe_heading_error", False))
+
+
+def check_observation(checkpoint: dict, env: EnvConfig, source: str | Path) -> None:
+    """Raise `ConfigError` unless `env` builds the observation the checkpoint's policy was trained on (its gait
+    clock and whether the heading error is in it); `source` names the checkpoint in the message."""
+    if gait_clock_of(checkpoint) != env.gait_clock:
+        raise ConfigError(f"{source} observes the {gait_clock_of(checkpoint)!r} gait clock; this environment has "
+                          f"{env.gait_clock!r}")
+    if observes_heading_error(checkpoint) != env.observe_heading_error:
+        raise ConfigError(f"{source} was trained {'with' if observes_heading_error(checkpoint) else 'without'} the "
+                          f"heading error in its observation; this environment has observe_heading_error="
+                          f"{env.observe_heading_error}")
+
+
 class PolicyController:
     """A trained policy as a `Controller`: its own gait clock, joint history and previous action.
 
@@ -165,7 +183,8 @@ class PolicyController:
         checkpoint = load_checkpoint(path)
         self.model = ActorCritic.from_checkpoint(checkpoint).eval()
         self.gait_clock = gait_clock_of(checkpoint)
-        self.builder = ObservationBuilder(int(checkpoint["history_length"]), gait_timing(self.gait_clock))
+        self.builder = ObservationBuilder(int(checkpoint["history_length"]), gait_timing(self.gait_clock),
+                                          observes_heading_error(checkpoint))
         if self.builder.layout.size != self.model.observation_size:
             raise ConfigError(f"{path}: observation size {self.model.observation_size} does not match its layout "
                               f"({self.builder.layout.size})")

@@ -268,3 +268,49 @@ def test_the_time_keeping_clock_ends_each_step_at_phase_one_whatever_the_feet_do
     assert touchdowns["time"] == expected and touchdowns["contact"] > expected
     with pytest.raises(ConfigError, match="unknown gait_clock 'wall'"):
         EnvConfig(gait_clock="wall")
+
+
+def _yawed(state: RobotState, yaw_rad: float) -> RobotState:
+    turned = state.copy()
+    turned.base_quat = np.array([math.cos(yaw_rad / 2), 0.0, 0.0, math.sin(yaw_rad / 2)])
+    return turned
+
+
+def test_the_heading_error_is_the_heading_off_the_integrated_yaw_rate_command(rng):
+    """psi - (psi_0 + w_cmd t), last in the observation; beyond 0.5 rad the reference is dragged along (anti-windup)."""
+    assert ObservationLayout(3, heading_error=True).size == ObservationLayout(3).size + 1
+    builder = ObservationBuilder(0, heading_error=True)
+    start = _yawed(random_robot_state(rng), 0.3)
+    builder.reset(start)
+    builder.observe(start, np.array([0.3, 0.0, 0.2]))
+    later = _yawed(start, 0.3 + 0.1)
+    later.time = start.time + 1.0  # the command would have turned it by 0.2 rad
+    assert builder.observe(later, np.array([0.3, 0.0, 0.0]))[-1] == pytest.approx(0.1 - 0.2)
+    much_later = _yawed(start, 0.3 + 0.1 + 1.0)  # turned 1 rad more while commanded straight
+    much_later.time = later.time + 1.0
+    assert builder.observe(much_later, np.zeros(3))[-1] == pytest.approx(0.5)
+    assert builder.observe(_yawed(much_later, 0.3 + 0.1 + 0.5), np.zeros(3))[-1] == pytest.approx(0.0, abs=1e-9)
+    with pytest.raises(ConfigError, match="needs observe_heading_error"):
+        EnvConfig(expert_heading_correction_per_step_rad=0.1)
+
+
+def test_a_heading_holding_expert_steers_the_observed_heading_error_to_zero():
+    """Both setpoints (the expert's and the observation's) moved 0.3 rad to the left of a robot walking straight: the
+    holding expert turns onto the new heading within 2 s and the observed error goes to zero with it; the
+    rate-only expert ignores it."""
+    final_error_rad = {}
+    for correction in (0.0, 0.1):
+        config = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0),
+                           commands=CommandSampling(vx_mps=(0.4, 0.4), vy_mps=(0.0, 0.0), yaw_rate_radps=(0.0, 0.0),
+                                                    standing_probability=0.0),
+                           observe_heading_error=True, expert_heading_correction_per_step_rad=correction)
+        env = WalkEnv(config)
+        env.reset(0)
+        for tick in range(800):  # 4 s
+            if tick == 200:
+                heading = yaw_of_quaternion(env.state.base_quat) + 0.3
+                for setpoint in (env.builder.heading_setpoint, env.expert.controller.heading_setpoint):
+                    setpoint.reset(heading, env.state.time)
+            assert not env.step(env.label()[0]).terminated
+        final_error_rad[correction] = env.observation[-1]
+    assert abs(final_error_rad[0.1]) < 0.05 and final_error_rad[0.0] == pytest.approx(-0.3, abs=0.05)

@@ -9,7 +9,7 @@ import torch
 from learn.action import ACTION_DIM, ActionSpace
 from learn.checkpoints import deployable_checkpoint, save_torch
 from learn.config import EnvConfig
-from learn.observation import ObservationLayout
+from learn.observation import ObservationLayout, observation_layout
 from learn.policy import ActorCritic, Normalizer, PolicyController, load_checkpoint
 from mbc.errors import ConfigError
 from mbc.rollout import run_episode
@@ -104,6 +104,21 @@ def test_a_policy_runs_the_gait_clock_it_was_trained_on_and_fine_tuning_keeps_it
     assert PolicyController(SHIPPED).gait_clock == "contact"  # written before the key existed
     with pytest.raises(ConfigError, match="observes the 'time' gait clock"):
         FinetuneRunner(FinetuneConfig(init_policy=str(timed), run_dir=str(tmp_path / "run")))
+
+
+def test_a_policy_observes_its_heading_error_only_if_trained_so_and_fine_tuning_checks_it(tmp_path):
+    from learn.finetune import FinetuneConfig, FinetuneRunner
+
+    holding = EnvConfig(observe_heading_error=True, expert_heading_correction_per_step_rad=0.1)
+    model = ActorCritic(observation_layout(holding).size)
+    path = tmp_path / "holding.pt"
+    save_torch(path, deployable_checkpoint(model, holding, ActionSpace()))
+    controller = PolicyController(path)
+    assert controller.builder.layout.parts[-1] == ("heading_error", 1)
+    assert np.all(np.isfinite(controller.act(DigitSim().state(), Command(vx=0.3)).tau_ff))
+    assert PolicyController(SHIPPED).builder.layout.size == observation_layout(EnvConfig()).size  # written before the key
+    with pytest.raises(ConfigError, match="trained with the heading error"):
+        FinetuneRunner(FinetuneConfig(init_policy=str(path), run_dir=str(tmp_path / "run")))
 
 
 def test_a_policy_follows_the_commands_it_was_trained_on_turning_limit_included(tmp_path):

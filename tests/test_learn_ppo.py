@@ -244,7 +244,7 @@ def test_the_shipped_purerl_training_state_resumes(tmp_path):
     shutil.copy(shipped, tmp_path / "purerl" / "training_state.pt")
     start = int(torch.load(shipped, weights_only=True)["iteration"]) + 1
     config = _short_run(tmp_path, "purerl", start + 1, resume=True)
-    with pytest.raises(ConfigError, match="trained on the 'contact' gait clock"):
+    with pytest.raises(ConfigError, match="observes the 'contact' gait clock"):
         FinetuneRunner(dataclasses.replace(config, env=dataclasses.replace(config.env, gait_clock="time")))
     runner = FinetuneRunner(config)
     assert runner.start_iteration == start
