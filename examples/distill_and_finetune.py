@@ -5,6 +5,7 @@ policies on quick protocols, and export the result to ONNX.
     python examples/distill_and_finetune.py                           # PPF from policies/distilled.pt (~12 min on 2 cores)
     python examples/distill_and_finetune.py --method ifm --run-dir runs/ifm
     python examples/distill_and_finetune.py --stage all               # distill from nothing first
+    python examples/distill_and_finetune.py --stage all --heading-hold 0.1   # a teacher that holds its heading
     python examples/distill_and_finetune.py --run-dir runs/ppf --resume
     python examples/distill_and_finetune.py --preset paper            # the paper's scale: 10,000 iterations
 
@@ -87,6 +88,11 @@ def main(args: Args) -> None:
         raise ConfigError(f"--iterations must be >= 1 (PPO iterations of 6,400 steps each), got {args.iterations}")
     if args.evaluation_seeds < 0:
         raise ConfigError(f"--evaluation-seeds must be >= 0 (0: skip the comparison), got {args.evaluation_seeds}")
+    if args.heading_hold < 0:
+        raise ConfigError(f"--heading-hold must be >= 0 (rad of correction per step; 0: none), got {args.heading_hold}")
+    if args.heading_hold > 0 and args.stage == "finetune" and args.method != "purerl":
+        raise ConfigError("--heading-hold needs --stage all: the shipped distilled policy does not observe its heading "
+                          "error, so the distillation must be run with it")
     output_directory(args.run_dir, "--run-dir")
     heading = {"observe_heading_error": args.heading_hold > 0, "expert_heading_correction_per_step_rad": args.heading_hold}
     init = DISTILLED

@@ -36,7 +36,9 @@ def test_a_file_that_is_not_a_policy_says_what_a_policy_checkpoint_is():
 def test_the_main_job_refuses_bad_iterations_and_seeds_before_any_work(tmp_path):
     job = _main_job()
     for args, message in ((dict(iterations=-3), "--iterations must be >= 1"), (dict(iterations=0), "--iterations must be >= 1"),
-                          (dict(evaluation_seeds=-1), "--evaluation-seeds must be >= 0")):
+                          (dict(evaluation_seeds=-1), "--evaluation-seeds must be >= 0"),
+                          (dict(heading_hold=-0.1), "--heading-hold must be >= 0"),
+                          (dict(heading_hold=0.1), "--heading-hold needs --stage all")):
         with pytest.raises(ConfigError, match=message):
             job.main(job.Args(run_dir=tmp_path / "run", **args))
     assert not (tmp_path / "run").exists()  # refused before the run directory was made
