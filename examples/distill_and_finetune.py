@@ -6,6 +6,7 @@ policies on quick protocols, and export the result to ONNX.
     python examples/distill_and_finetune.py --method ifm --run-dir runs/ifm
     python examples/distill_and_finetune.py --stage all               # distill from nothing first
     python examples/distill_and_finetune.py --stage all --heading-hold 0.1   # a teacher that holds its heading
+    python examples/distill_and_finetune.py --method fullreg --heading-hold 0.1 --init-policy runs/hold/distill/policy.pt
     python examples/distill_and_finetune.py --run-dir runs/ppf --resume
     python examples/distill_and_finetune.py --preset paper            # the paper's scale: 10,000 iterations
 
@@ -29,6 +30,7 @@ from learn.dagger_runner import DaggerRunner
 from learn.evaluate import evaluate, write_outputs
 from learn.export import export_onnx
 from learn.finetune import DISTILLED, SCRATCH_GAMMA, SCRATCH_LAM, SCRATCH_START_LEVEL, FinetuneConfig, FinetuneRunner
+from learn.policy import check_observation, load_checkpoint
 from learn.ppo import PAPER_MONITORS, Method, PpoConfig
 from learn.storage import output_directory
 from mbc.errors import ConfigError, MbcError
@@ -40,7 +42,10 @@ QUICK_PROTOCOLS = ("flat", "uphill_16", "downhill_10", "uneven_4", "max_velocity
 class Args:
     method: Method = "ppf"
     stage: Literal["finetune", "all"] = "finetune"
-    """'finetune': start from the shipped distilled policy; 'all': distill from nothing first."""
+    """'finetune': start from --init-policy; 'all': distill from nothing first."""
+    init_policy: Path = DISTILLED
+    """The policy 'finetune' starts from (the shipped distilled policy by default; a distillation of another run, e.g.
+    RUN/distill/policy.pt, to fine-tune the same student with several methods)."""
     run_dir: Path = Path("runs/main")
     resume: bool = False
     """Continue a killed run in --run-dir (the stage in progress resumes from its checkpoint)."""
@@ -77,7 +82,7 @@ class Args:
     heading_hold: float = 0.0
     """The expert's heading correction per step [rad] (`AlipControllerConfig.heading_correction_per_step_rad`), and the
     policy observes its heading error to the integrated yaw-rate command (0: neither, the shipped policies). Needs
-    --stage all: the shipped distilled policy does not observe it."""
+    --stage all or an --init-policy that observes it: the shipped distilled policy does not."""
     seed: int = 0
     device: str = "cpu"
     """Where the learner runs (the PPO update, the DAgger fit): 'cpu', or 'cuda' when torch sees a GPU."""
@@ -90,12 +95,19 @@ def main(args: Args) -> None:
         raise ConfigError(f"--evaluation-seeds must be >= 0 (0: skip the comparison), got {args.evaluation_seeds}")
     if args.heading_hold < 0:
         raise ConfigError(f"--heading-hold must be >= 0 (rad of correction per step; 0: none), got {args.heading_hold}")
-    if args.heading_hold > 0 and args.stage == "finetune" and args.method != "purerl":
-        raise ConfigError("--heading-hold needs --stage all: the shipped distilled policy does not observe its heading "
-                          "error, so the distillation must be run with it")
-    output_directory(args.run_dir, "--run-dir")
+    if args.stage == "all" and args.init_policy != DISTILLED:
+        raise ConfigError("--init-policy is the start of --stage finetune; --stage all starts from its own distillation")
+    if args.heading_hold > 0 and args.stage == "finetune" and args.init_policy == DISTILLED and args.method != "purerl":
+        raise ConfigError("--heading-hold needs --stage all or an --init-policy that observes its heading error: the "
+                          "shipped distilled policy does not")
     heading = {"observe_heading_error": args.heading_hold > 0, "expert_heading_correction_per_step_rad": args.heading_hold}
-    init = DISTILLED
+    env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock, **heading)
+    if args.yaw_rate_sigma is not None:
+        env = dataclasses.replace(env, ang_vel_tracking_sigma=args.yaw_rate_sigma)
+    if args.stage == "finetune" and args.method != "purerl":  # a wrong start is refused before any work
+        check_observation(load_checkpoint(args.init_policy), env, args.init_policy)
+    output_directory(args.run_dir, "--run-dir")
+    init = args.init_policy
     if args.stage == "all":
         distill_dir = args.run_dir / "distill"
         resume = args.resume and (distill_dir / "training_state.pt").exists()
@@ -110,9 +122,6 @@ def main(args: Args) -> None:
                                                                           TerrainCurriculum.initial_max_level)
     ppo = PpoConfig(gamma=args.gamma if args.gamma is not None else (SCRATCH_GAMMA if scratch else PpoConfig.gamma),
                     lam=args.lam if args.lam is not None else (SCRATCH_LAM if scratch else PpoConfig.lam))
-    env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock, **heading)
-    if args.yaw_rate_sigma is not None:
-        env = dataclasses.replace(env, ang_vel_tracking_sigma=args.yaw_rate_sigma)
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init, env=env,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
                             mar_monitors=args.mar_monitors,
