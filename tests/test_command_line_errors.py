@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 import pytest
+import torch
 
 from learn.config import WorkerConfig
 from learn.evaluate import evaluate
@@ -42,6 +43,44 @@ def test_the_main_job_refuses_bad_iterations_and_seeds_before_any_work(tmp_path)
         with pytest.raises(ConfigError, match=message):
             job.main(job.Args(run_dir=tmp_path / "run", **args))
     assert not (tmp_path / "run").exists()  # refused before the run directory was made
+
+
+def test_the_main_job_refuses_an_init_policy_it_cannot_start_from_before_any_work(tmp_path):
+    job = _main_job()
+    observing = tmp_path / "observing.pt"  # a checkpoint whose policy observes its heading error
+    checkpoint = load_checkpoint(ROOT / "policies" / "distilled.pt")
+    torch.save(checkpoint | {"observe_heading_error": True}, observing)
+    for args, message in ((dict(stage="all", init_policy=observing), "--init-policy is the start of --stage finetune"),
+                          (dict(init_policy=observing), "observing.pt was trained with the heading error"),
+                          (dict(init_policy=ROOT / "policies" / "distilled.pt", heading_hold=0.1),
+                           "--heading-hold needs --stage all or an --init-policy"),
+                          (dict(init_policy=ROOT / "README.md"), "README.md is not a policy checkpoint"),
+                          (dict(init_policy=tmp_path / "none.pt"), "no policy checkpoint at")):
+        with pytest.raises(ConfigError, match=message):
+            job.main(job.Args(run_dir=tmp_path / "run", **args))
+    assert not (tmp_path / "run").exists()
+
+
+def test_the_main_job_fine_tunes_the_init_policy_it_is_given(tmp_path, monkeypatch):
+    job = _main_job()
+    observing = tmp_path / "observing.pt"
+    torch.save(load_checkpoint(ROOT / "policies" / "distilled.pt") | {"observe_heading_error": True}, observing)
+    configs = []
+
+    class Built(Exception):
+        pass
+
+    def runner(config):
+        configs.append(config)
+        raise Built
+
+    monkeypatch.setattr(job, "FinetuneRunner", runner)
+    with pytest.raises(Built):
+        job.main(job.Args(run_dir=tmp_path / "run", evaluation_seeds=0, method="fullreg", init_policy=observing,
+                          heading_hold=0.1))
+    (config,) = configs
+    assert config.init_policy == observing and config.env.observe_heading_error
+    assert config.env.expert_heading_correction_per_step_rad == 0.1
 
 
 def test_the_main_job_gives_purerl_its_from_scratch_settings_and_keeps_explicit_ones(tmp_path, monkeypatch):
