@@ -79,6 +79,9 @@ class Args:
     """delta_omega of the yaw-rate tracking reward exp(-(w_z - w_z_cmd)^2 / delta) [(rad/s)^2] (default 0.25, the paper's).
     At 0.05 PPF did not keep its heading up 14 deg over three training seeds (5/5, 4/5, 0/5 without a hold; 1/5,
     3/5, 2/5 at 0.25): docs/evaluation.md, "A sharper yaw-rate kernel"."""
+    lin_vel_sigma: float | None = None
+    """delta_xy of the velocity tracking reward exp(-|v_xy - v_xy_cmd|^2 / delta) [(m/s)^2] (default 0.25, the paper's,
+    where 10% of 0.5 m/s costs 1% of the term)."""
     heading_hold: float = 0.0
     """The expert's heading correction per step [rad] (`AlipControllerConfig.heading_correction_per_step_rad`), and the
     policy observes its heading error to the integrated yaw-rate command (0: neither, the shipped policies). Needs
@@ -95,6 +98,9 @@ def main(args: Args) -> None:
         raise ConfigError(f"--evaluation-seeds must be >= 0 (0: skip the comparison), got {args.evaluation_seeds}")
     if args.heading_hold < 0:
         raise ConfigError(f"--heading-hold must be >= 0 (rad of correction per step; 0: none), got {args.heading_hold}")
+    for flag, sigma in (("--lin-vel-sigma", args.lin_vel_sigma), ("--yaw-rate-sigma", args.yaw_rate_sigma)):
+        if sigma is not None and sigma <= 0:
+            raise ConfigError(f"{flag} must be positive (a kernel's width, (unit/s)^2), got {sigma}")
     if args.stage == "all" and args.init_policy != DISTILLED:
         raise ConfigError("--init-policy is the start of --stage finetune; --stage all starts from its own distillation")
     if args.heading_hold > 0 and args.stage == "finetune" and args.init_policy == DISTILLED and args.method != "purerl":
@@ -104,6 +110,8 @@ def main(args: Args) -> None:
     env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock, **heading)
     if args.yaw_rate_sigma is not None:
         env = dataclasses.replace(env, ang_vel_tracking_sigma=args.yaw_rate_sigma)
+    if args.lin_vel_sigma is not None:
+        env = dataclasses.replace(env, lin_vel_tracking_sigma=args.lin_vel_sigma)
     if args.stage == "finetune" and args.method != "purerl":  # a wrong start is refused before any work
         check_observation(load_checkpoint(args.init_policy), env, args.init_policy)
     output_directory(args.run_dir, "--run-dir")
