@@ -81,7 +81,8 @@ class Args:
     3/5, 2/5 at 0.25): docs/evaluation.md, "A sharper yaw-rate kernel"."""
     lin_vel_sigma: float | None = None
     """delta_xy of the velocity tracking reward exp(-|v_xy - v_xy_cmd|^2 / delta) [(m/s)^2] (default 0.25, the paper's,
-    where 10% of 0.5 m/s costs 1% of the term)."""
+    where 10% of 0.5 m/s costs 1% of the term). At 0.05 PPF seed 0 tracked flat commands no better (0.67 of 3, as at
+    0.25): policies/README.md, "ppf_5m_hold_lin005_s0.pt"."""
     heading_hold: float = 0.0
     """The expert's heading correction per step [rad] (`AlipControllerConfig.heading_correction_per_step_rad`), and the
     policy observes its heading error to the integrated yaw-rate command (0: neither, the shipped policies). Needs
@@ -98,20 +99,19 @@ def main(args: Args) -> None:
         raise ConfigError(f"--evaluation-seeds must be >= 0 (0: skip the comparison), got {args.evaluation_seeds}")
     if args.heading_hold < 0:
         raise ConfigError(f"--heading-hold must be >= 0 (rad of correction per step; 0: none), got {args.heading_hold}")
-    for flag, sigma in (("--lin-vel-sigma", args.lin_vel_sigma), ("--yaw-rate-sigma", args.yaw_rate_sigma)):
+    for flag, sigma, unit in (("--lin-vel-sigma", args.lin_vel_sigma, "(m/s)^2"),
+                              ("--yaw-rate-sigma", args.yaw_rate_sigma, "(rad/s)^2")):
         if sigma is not None and sigma <= 0:
-            raise ConfigError(f"{flag} must be positive (a kernel's width, (unit/s)^2), got {sigma}")
+            raise ConfigError(f"{flag} must be positive (the tracking kernel's width [{unit}]), got {sigma}")
     if args.stage == "all" and args.init_policy != DISTILLED:
         raise ConfigError("--init-policy is the start of --stage finetune; --stage all starts from its own distillation")
     if args.heading_hold > 0 and args.stage == "finetune" and args.init_policy == DISTILLED and args.method != "purerl":
         raise ConfigError("--heading-hold needs --stage all or an --init-policy that observes its heading error: the "
                           "shipped distilled policy does not")
     heading = {"observe_heading_error": args.heading_hold > 0, "expert_heading_correction_per_step_rad": args.heading_hold}
-    env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock, **heading)
-    if args.yaw_rate_sigma is not None:
-        env = dataclasses.replace(env, ang_vel_tracking_sigma=args.yaw_rate_sigma)
-    if args.lin_vel_sigma is not None:
-        env = dataclasses.replace(env, lin_vel_tracking_sigma=args.lin_vel_sigma)
+    kernels = {name: sigma for name, sigma in (("lin_vel_tracking_sigma", args.lin_vel_sigma),
+                                               ("ang_vel_tracking_sigma", args.yaw_rate_sigma)) if sigma is not None}
+    env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock, **heading, **kernels)
     if args.stage == "finetune" and args.method != "purerl":  # a wrong start is refused before any work
         check_observation(load_checkpoint(args.init_policy), env, args.init_policy)
     output_directory(args.run_dir, "--run-dir")
