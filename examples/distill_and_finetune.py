@@ -83,6 +83,9 @@ class Args:
     """delta_xy of the velocity tracking reward exp(-|v_xy - v_xy_cmd|^2 / delta) [(m/s)^2] (default 0.25, the paper's,
     where 10% of 0.5 m/s costs 1% of the term). At 0.05 PPF seed 0 tracked flat commands no better (0.67 of 3, as at
     0.25): policies/README.md, "ppf_5m_hold_lin005_s0.pt"."""
+    mean_vel_tracking: float = 0.0
+    """Weight of the gait-averaged velocity tracking term exp(-|e_xy|^2 / 0.01), e_xy the velocity error low-passed
+    over 0.7 s (`EnvConfig.mean_vel_tracking_weight`; 0: the paper's reward, the shipped policies')."""
     heading_hold: float = 0.0
     """The expert's heading correction per step [rad] (`AlipControllerConfig.heading_correction_per_step_rad`), and the
     policy observes its heading error to the integrated yaw-rate command (0: neither, the shipped policies). Needs
@@ -99,6 +102,8 @@ def main(args: Args) -> None:
         raise ConfigError(f"--evaluation-seeds must be >= 0 (0: skip the comparison), got {args.evaluation_seeds}")
     if args.heading_hold < 0:
         raise ConfigError(f"--heading-hold must be >= 0 (rad of correction per step; 0: none), got {args.heading_hold}")
+    if args.mean_vel_tracking < 0:
+        raise ConfigError(f"--mean-vel-tracking must be >= 0 (the term's weight; 0: off), got {args.mean_vel_tracking}")
     for flag, sigma, unit in (("--lin-vel-sigma", args.lin_vel_sigma, "(m/s)^2"),
                               ("--yaw-rate-sigma", args.yaw_rate_sigma, "(rad/s)^2")):
         if sigma is not None and sigma <= 0:
@@ -111,7 +116,8 @@ def main(args: Args) -> None:
     heading = {"observe_heading_error": args.heading_hold > 0, "expert_heading_correction_per_step_rad": args.heading_hold}
     kernels = {name: sigma for name, sigma in (("lin_vel_tracking_sigma", args.lin_vel_sigma),
                                                ("ang_vel_tracking_sigma", args.yaw_rate_sigma)) if sigma is not None}
-    env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock, **heading, **kernels)
+    env = dataclasses.replace(FinetuneConfig().env, gait_clock=args.gait_clock, mean_vel_tracking_weight=args.mean_vel_tracking,
+                              **heading, **kernels)
     if args.stage == "finetune" and args.method != "purerl":  # a wrong start is refused before any work
         check_observation(load_checkpoint(args.init_policy), env, args.init_policy)
     output_directory(args.run_dir, "--run-dir")

@@ -33,11 +33,14 @@ from learn.rewards import (
     contact_schedule,
     cos_tilt,
     feet_air_time,
+    lin_vel_tracking,
+    low_pass,
     reward_terms,
     total_reward,
     vertical_velocity,
 )
 from learn.swing_reward import SwingFootReference
+from mbc.command_ramp import CommandRamp
 from mbc.controller import AlipControllerConfig
 from mbc.errors import ConfigError, MbcError
 from mbc.geometry import rotate_inverse, wrap_angle, yaw_of_quaternion
@@ -114,6 +117,12 @@ class WalkEnv:
         self.command_sampling = config.commands
         """How this environment draws its commands (a terrain curriculum gives inclines their own)."""
         self._noise_scale = self._observation_noise_scale()
+        self._weights = ((PURERL_WEIGHTS if config.purerl_rewards else PAPER_WEIGHTS)
+                         | ({"mean_vel_tracking": config.mean_vel_tracking_weight} if config.mean_vel_tracking_weight else {}))
+        """The reward's weights: the paper's table (PureRL's with `purerl_rewards`) and the gait-averaged term if weighted."""
+        self._command_ramp = CommandRamp(AlipControllerConfig.command_rates)
+        self._mean_velocity_error = np.zeros((2, 2))
+        """The heading-frame velocity error to the ramped command after each of the two low-pass stages [m/s]."""
         self._velocity = np.zeros(6)
         self.state: RobotState | None = None
         self.command = np.zeros(3)
@@ -161,6 +170,8 @@ class WalkEnv:
         self.largest_heading_error_rad = 0.0
         self._next_command_s = rng.uniform(*self.command_sampling.resample_interval_s)
         self._air_time_s, self._in_contact = np.zeros(2), self.state.contact.copy()
+        self._mean_velocity_error = np.zeros((2, 2))
+        self._command_ramp.reset()
         self._earlier_actions = [np.zeros(ACTION_DIM), np.zeros(ACTION_DIM)]
         if self._swing_reference is not None:
             self._swing_reference.reset()
@@ -225,10 +236,12 @@ class WalkEnv:
         yaw = yaw_of_quaternion(state.base_quat)
         cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
         vx, vy = state.base_linvel[0], state.base_linvel[1]
+        v_xy_heading = np.array([cos_yaw * vx + sin_yaw * vy, -sin_yaw * vx + cos_yaw * vy])
         terms = reward_terms(RewardInputs(
-            v_xy_heading=np.array([cos_yaw * vx + sin_yaw * vy, -sin_yaw * vx + cos_yaw * vy]),
+            v_xy_heading=v_xy_heading,
             angvel_base=np.array(rotate_inverse(state.base_quat, state.base_angvel)), yaw_rate=float(state.base_angvel[2]),
             command=command, tau=state.tau), cfg.lin_vel_tracking_sigma, cfg.ang_vel_tracking_sigma)
+        terms["mean_vel_tracking"] = self._mean_vel_tracking(v_xy_heading, command, state.time)
         try:
             fell, off_terrain = self.sim.fallen, False
         except MbcError:  # walked off the edge of a bounded terrain: the episode ends, not as a failure
@@ -245,9 +258,20 @@ class WalkEnv:
         if cfg.purerl_rewards:  # of this tick's command, at the new state
             terms |= self._purerl_terms(state, action, command)
         self._update_monitors()
-        reward = (total_reward(terms, PURERL_WEIGHTS, PURERL_REWARD_FLOOR) if cfg.purerl_rewards
-                  else total_reward(terms, PAPER_WEIGHTS))
+        reward = (total_reward(terms, self._weights, PURERL_REWARD_FLOOR) if cfg.purerl_rewards
+                  else total_reward(terms, self._weights))
         return Step(self.observation, reward, terminated, truncated, terms)
+
+    def _mean_vel_tracking(self, v_xy_heading: np.ndarray, command: np.ndarray, time_s: float) -> float:
+        """The gait-averaged term (`learn.rewards`): the error to the command as the MBC ramps it (`mbc.command_ramp`:
+        a step in the command asks for no jump in velocity) through two first-order stages of tau each (the sway at
+        the 0.7 s gait period attenuated about 20x, where one stage of 0.7 s left 0.05 m/s of the MBC's sway)."""
+        cfg = self.config
+        followed = np.array(self._command_ramp(tuple(command), time_s)[:2])
+        stages = self._mean_velocity_error
+        stages[0] = low_pass(stages[0], v_xy_heading - followed, self.sim.dt, cfg.mean_vel_time_constant_s)
+        stages[1] = low_pass(stages[1], stages[0], self.sim.dt, cfg.mean_vel_time_constant_s)
+        return lin_vel_tracking(stages[1], np.zeros(2), cfg.mean_vel_tracking_sigma)
 
     def _purerl_terms(self, state: RobotState, action: np.ndarray, command: np.ndarray) -> dict[str, float]:
         """PureRL's terms (`learn.rewards`); updates the memory of air times and actions."""
