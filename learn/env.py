@@ -22,6 +22,7 @@ import numpy as np
 from learn.action import ACTION_DIM, ActionSpace
 from learn.config import CommandSampling, EnvConfig, Randomization
 from learn.expert import Expert
+from learn.mean_velocity import MeanVelocityError
 from learn.observation import ObservationBuilder, gait_timing
 from learn.rewards import (
     PAPER_WEIGHTS,
@@ -33,14 +34,11 @@ from learn.rewards import (
     contact_schedule,
     cos_tilt,
     feet_air_time,
-    lin_vel_tracking,
-    low_pass,
     reward_terms,
     total_reward,
     vertical_velocity,
 )
 from learn.swing_reward import SwingFootReference
-from mbc.command_ramp import CommandRamp
 from mbc.controller import AlipControllerConfig
 from mbc.errors import ConfigError, MbcError
 from mbc.geometry import rotate_inverse, wrap_angle, yaw_of_quaternion
@@ -120,9 +118,7 @@ class WalkEnv:
         self._weights = ((PURERL_WEIGHTS if config.purerl_rewards else PAPER_WEIGHTS)
                          | ({"mean_vel_tracking": config.mean_vel_tracking_weight} if config.mean_vel_tracking_weight else {}))
         """The reward's weights: the paper's table (PureRL's with `purerl_rewards`) and the gait-averaged term if weighted."""
-        self._command_ramp = CommandRamp(AlipControllerConfig.command_rates)
-        self._mean_velocity_error = np.zeros((2, 2))
-        """The heading-frame velocity error to the ramped command after each of the two low-pass stages [m/s]."""
+        self._mean_velocity_error = MeanVelocityError(config.mean_vel_time_constant_s)
         self._velocity = np.zeros(6)
         self.state: RobotState | None = None
         self.command = np.zeros(3)
@@ -170,8 +166,7 @@ class WalkEnv:
         self.largest_heading_error_rad = 0.0
         self._next_command_s = rng.uniform(*self.command_sampling.resample_interval_s)
         self._air_time_s, self._in_contact = np.zeros(2), self.state.contact.copy()
-        self._mean_velocity_error = np.zeros((2, 2))
-        self._command_ramp.reset()
+        self._mean_velocity_error.reset()
         self._earlier_actions = [np.zeros(ACTION_DIM), np.zeros(ACTION_DIM)]
         if self._swing_reference is not None:
             self._swing_reference.reset()
@@ -241,7 +236,10 @@ class WalkEnv:
             v_xy_heading=v_xy_heading,
             angvel_base=np.array(rotate_inverse(state.base_quat, state.base_angvel)), yaw_rate=float(state.base_angvel[2]),
             command=command, tau=state.tau), cfg.lin_vel_tracking_sigma, cfg.ang_vel_tracking_sigma)
-        terms["mean_vel_tracking"] = self._mean_vel_tracking(v_xy_heading, command, state.time)
+        if cfg.mean_vel_tracking_weight:  # 5 us a tick: only where it is paid
+            x, y = self._mean_velocity_error.update(float(v_xy_heading[0]), float(v_xy_heading[1]), tuple(command.tolist()),
+                                                    state.time, self.sim.dt)
+            terms["mean_vel_tracking"] = math.exp(-(x * x + y * y) / cfg.mean_vel_tracking_sigma)
         try:
             fell, off_terrain = self.sim.fallen, False
         except MbcError:  # walked off the edge of a bounded terrain: the episode ends, not as a failure
@@ -261,17 +259,6 @@ class WalkEnv:
         reward = (total_reward(terms, self._weights, PURERL_REWARD_FLOOR) if cfg.purerl_rewards
                   else total_reward(terms, self._weights))
         return Step(self.observation, reward, terminated, truncated, terms)
-
-    def _mean_vel_tracking(self, v_xy_heading: np.ndarray, command: np.ndarray, time_s: float) -> float:
-        """The gait-averaged term (`learn.rewards`): the error to the command as the MBC ramps it (`mbc.command_ramp`:
-        a step in the command asks for no jump in velocity) through two first-order stages of tau each (the sway at
-        the 0.7 s gait period attenuated about 20x, where one stage of 0.7 s left 0.05 m/s of the MBC's sway)."""
-        cfg = self.config
-        followed = np.array(self._command_ramp(tuple(command), time_s)[:2])
-        stages = self._mean_velocity_error
-        stages[0] = low_pass(stages[0], v_xy_heading - followed, self.sim.dt, cfg.mean_vel_time_constant_s)
-        stages[1] = low_pass(stages[1], stages[0], self.sim.dt, cfg.mean_vel_time_constant_s)
-        return lin_vel_tracking(stages[1], np.zeros(2), cfg.mean_vel_tracking_sigma)
 
     def _purerl_terms(self, state: RobotState, action: np.ndarray, command: np.ndarray) -> dict[str, float]:
         """PureRL's terms (`learn.rewards`); updates the memory of air times and actions."""

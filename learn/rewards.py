@@ -8,8 +8,8 @@
 Velocities are in the heading frame (linear) and the base frame (angular), as the command is. An option
 beyond the paper's table (`EnvConfig.mean_vel_tracking_weight`, 0 by default):
 
-    mean_vel_tracking  exp(-|e_xy|^2 / delta_mean), e_xy the heading-frame velocity error v_xy - v_xy_cmd
-                       low-passed over a gait cycle (`low_pass`; `lin_vel_tracking` of e_xy against zero)
+    mean_vel_tracking  exp(-|e_xy|^2 / delta_mean), e_xy the heading-frame velocity error to the command
+                       averaged over a gait cycle (`learn.mean_velocity`)
 
 The instantaneous term cannot see a steady drift of a few cm/s under the sway of walking: with sway s and bias b,
 exp(-(s^2 + b^2) / delta) loses about b^2 / delta, 2% of the term at b = 0.07 m/s and the paper's delta = 0.25,
@@ -56,11 +56,6 @@ def lin_vel_tracking(v_xy_heading: np.ndarray, v_xy_command: np.ndarray, sigma: 
     """exp(-|v_xy - v_xy_cmd|^2 / sigma), velocities in the heading frame [m/s]."""
     error = np.asarray(v_xy_heading, float) - np.asarray(v_xy_command, float)
     return float(np.exp(-float(error @ error) / sigma))
-
-
-def low_pass(average: np.ndarray, sample: np.ndarray, dt_s: float, time_constant_s: float) -> np.ndarray:
-    """One step of the first-order filter x <- x + (dt / tau)(u - x), tau >= dt (an exponential moving average)."""
-    return average + (dt_s / max(time_constant_s, dt_s)) * (np.asarray(sample, float) - average)
 
 
 def ang_vel_tracking(yaw_rate: float, yaw_rate_command: float, sigma: float) -> float:

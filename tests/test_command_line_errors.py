@@ -41,6 +41,7 @@ def test_the_main_job_refuses_bad_iterations_and_seeds_before_any_work(tmp_path)
                           (dict(heading_hold=-0.1), "--heading-hold must be >= 0"),
                           (dict(lin_vel_sigma=0.0), "--lin-vel-sigma must be positive"),
                           (dict(yaw_rate_sigma=-0.05), "--yaw-rate-sigma must be positive"),
+                          (dict(mean_vel_tracking=-1.0), "--mean-vel-tracking must be >= 0"),
                           (dict(heading_hold=0.1), "--heading-hold needs --stage all")):
         with pytest.raises(ConfigError, match=message):
             job.main(job.Args(run_dir=tmp_path / "run", **args))
@@ -79,11 +80,12 @@ def test_the_main_job_fine_tunes_the_init_policy_it_is_given(tmp_path, monkeypat
     monkeypatch.setattr(job, "FinetuneRunner", runner)
     with pytest.raises(Built):
         job.main(job.Args(run_dir=tmp_path / "run", evaluation_seeds=0, method="fullreg", init_policy=observing,
-                          heading_hold=0.1, lin_vel_sigma=0.05, yaw_rate_sigma=0.1))
+                          heading_hold=0.1, lin_vel_sigma=0.05, yaw_rate_sigma=0.1, mean_vel_tracking=1.0))
     (config,) = configs
     assert config.init_policy == observing and config.env.observe_heading_error
     assert config.env.expert_heading_correction_per_step_rad == 0.1
     assert (config.env.lin_vel_tracking_sigma, config.env.ang_vel_tracking_sigma) == (0.05, 0.1)
+    assert config.env.mean_vel_tracking_weight == 1.0
 
 
 def test_the_main_job_gives_purerl_its_from_scratch_settings_and_keeps_explicit_ones(tmp_path, monkeypatch):
