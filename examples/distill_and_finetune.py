@@ -86,6 +86,9 @@ class Args:
     mean_vel_tracking: float = 0.0
     """Weight of the gait-averaged velocity tracking term exp(-|e_xy|^2 / 0.01), e_xy the velocity error low-passed
     over 0.7 s (`EnvConfig.mean_vel_tracking_weight`; 0: the paper's reward, the shipped policies')."""
+    regularize_true_observations: bool = False
+    """PPF and FullReg: fit the pull toward the expert at the noise-free observations (privileged, training only)
+    instead of the noisy ones the policy acts on (`FinetuneConfig.regularize_true_observations`; off: the paper's)."""
     heading_hold: float = 0.0
     """The expert's heading correction per step [rad] (`AlipControllerConfig.heading_correction_per_step_rad`), and the
     policy observes its heading error to the integrated yaw-rate command (0: neither, the shipped policies). Needs
@@ -108,6 +111,8 @@ def main(args: Args) -> None:
                               ("--yaw-rate-sigma", args.yaw_rate_sigma, "(rad/s)^2")):
         if sigma is not None and sigma <= 0:
             raise ConfigError(f"{flag} must be positive (the tracking kernel's width [{unit}]), got {sigma}")
+    if args.regularize_true_observations and args.method not in ("ppf", "fullreg"):
+        raise ConfigError(f"--regularize-true-observations fits the pull toward the expert: {args.method} has none")
     if args.stage == "all" and args.init_policy != DISTILLED:
         raise ConfigError("--init-policy is the start of --stage finetune; --stage all starts from its own distillation")
     if args.heading_hold > 0 and args.stage == "finetune" and args.init_policy == DISTILLED and args.method != "purerl":
@@ -138,7 +143,7 @@ def main(args: Args) -> None:
                     lam=args.lam if args.lam is not None else (SCRATCH_LAM if scratch else PpoConfig.lam))
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init, env=env,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
-                            mar_monitors=args.mar_monitors,
+                            mar_monitors=args.mar_monitors, regularize_true_observations=args.regularize_true_observations,
                             curriculum=TerrainCurriculum(initial_max_level=start_level), ppo=ppo,
                             resume=args.resume and (finetune_dir / "training_state.pt").exists())
     if args.preset == "paper":  # 10,000 iterations of 40,000 steps: the paper's 400 M samples

@@ -123,6 +123,8 @@ class WalkEnv:
         self.state: RobotState | None = None
         self.command = np.zeros(3)
         self.observation = np.zeros(self.builder.layout.size)
+        self.true_observation = self.observation
+        """The observation without its noise (privileged: for the training's losses, never the policy's input)."""
         self.monitors = np.zeros(len(MONITOR_NAMES))
         self.episode_start_s = 0.0
         self.commanded_heading = HeadingSetpoint(max_error_rad=math.pi)
@@ -202,7 +204,8 @@ class WalkEnv:
         return self.config.randomization.observation_noise * scale
 
     def _observe(self) -> np.ndarray:
-        observation = self.builder.observe(self.state, self.command)
+        """The noisy observation; its noise-free value is kept in `true_observation`."""
+        self.true_observation = observation = self.builder.observe(self.state, self.command)
         if self.config.randomization.observation_noise:
             observation = observation + self._noise_scale * self.rng.uniform(-1.0, 1.0, observation.shape)
         return observation

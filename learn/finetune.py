@@ -62,6 +62,9 @@ class FinetuneConfig:
     above 3,500 steps/s on 2 cores (`benchmarks/bench_ppo_throughput.py`)."""
     mar_monitors: tuple[str, ...] = PAPER_MONITORS
     """PPF: the assumption monitors its MAR weight reads (`learn.ppo.MONITOR_DELTAS`; the paper's CoM z' alone)."""
+    regularize_true_observations: bool = False
+    """PPF and FullReg: fit the pull toward the expert at the noise-free observations
+    (`RegularizerConfig.true_observations`); False: at the noisy ones the policy acts on (the paper's)."""
     init_log_std: float = -2.0
     """Log standard deviation of the exploration noise at the start (normalized action units)."""
     terrain_curriculum: bool = True
@@ -83,10 +86,14 @@ class FinetuneConfig:
         if self.label_every < 1 and self.method in ("ppf", "fullreg"):
             raise ConfigError(f"{self.method} regularizes toward the expert's labels: label_every must be >= 1 "
                               f"(1: every tick, 4: the default), got {self.label_every}")
+        if self.regularize_true_observations and self.method not in ("ppf", "fullreg"):
+            raise ConfigError(f"regularize_true_observations fits the pull toward the expert: only ppf and fullreg have "
+                              f"one, not {self.method}")
         self.regularizer()  # checks the MAR monitors
 
     def regularizer(self) -> RegularizerConfig:
-        return method_regularizer(self.method, self.label_every, self.mar_monitors)
+        regularizer = method_regularizer(self.method, self.label_every, self.mar_monitors)
+        return dataclasses.replace(regularizer, true_observations=self.regularize_true_observations)
 
 
 class FinetuneRunner:
@@ -148,6 +155,7 @@ class FinetuneRunner:
                     deployable_checkpoint(self.model, self.env_config, self.action_space), cfg.steps_per_env,
                     rollout_seed(cfg.seed, iteration), label_every=regularizer.label_every if regularizer.uses_expert else 0,
                     stochastic=True, continue_episodes=iteration > self.start_iteration,
+                    true_observations=regularizer.true_observations,
                     forward_command_max_mps=self.forward_max if cfg.velocity_curriculum else None))
                 collected = time.perf_counter()
                 if self._fresh_normalizer:  # PureRL: normalize by the first rollout's statistics, then keep them

@@ -53,6 +53,10 @@ class RegularizerConfig:
     """Regularize only toward labels that are the expert's action for the commanded velocity: where it clips
     the command (beyond its range or turning limit) or is mid-ramp toward it, its action is for another
     command, and pulling toward it fights the tracking reward (`Expert.followed`)."""
+    true_observations: bool = False
+    """Fit mu to the labels at each labelled state's noise-free observation (privileged, training only), not at the
+    noisy one the policy acts on: a regression of the expert's labels, computed from the true state, on noisy inputs
+    shrinks the gains it fits (errors in variables; docs/design.md, "drift on flat ground")."""
     lipschitz_alpha: float = 1e-4
     """alpha of the Lipschitz penalty alpha E[||grad_s mu(s)||^2] (the paper's 1e-4; 0: off)."""
     lipschitz_samples: int | None = 256
@@ -70,6 +74,9 @@ class RegularizerConfig:
             raise ConfigError(f"lipschitz_samples must be >= 1 or None, got {self.lipschitz_samples}")
         if self.label_every < 1 and self.weighting != "none":
             raise ConfigError("a regularizer toward the expert needs labels: label_every >= 1")
+        if self.true_observations and self.weighting == "none":
+            raise ConfigError("true_observations is where the pull toward the expert is fitted: it needs a regularizer "
+                              "(weighting 'mar' or 'constant')")
 
     @property
     def uses_expert(self) -> bool:
@@ -191,6 +198,7 @@ class Ppo:
             labelled = labelled & flat(rollout.label_followed)  # not in place: flat() shares the rollout's memory
         labelled = labelled.to(to)
         expert_actions, weights = flat(rollout.expert_actions).to(to), self.regularization_weight(flat(rollout.monitors).to(to))
+        true_obs = self._true_observations(rollout)
         old_mean = self.model.action_mean(obs).detach()
         old_std = self.model.log_std.exp().detach()
         sums: dict[str, float] = {}
@@ -201,7 +209,7 @@ class Ppo:
             for batch in order.chunk(cfg.minibatches):
                 terms, mean = self._terms(obs[batch], actions[batch], old_log_probs[batch], old_values[batch], returns[batch],
                                           advantages[batch], expert_actions[batch], weights[batch], labelled[batch],
-                                          critic_only)
+                                          None if true_obs is None else true_obs[batch], critic_only)
                 loss = sum(terms.values())
                 if not critic_only:  # how far the actor has moved, on this minibatch before its step (rsl_rl's order)
                     terms["kl"] = gaussian_kl(old_mean[batch], old_std, mean.detach(), self.model.log_std.detach().exp())
@@ -219,8 +227,18 @@ class Ppo:
                   "labelled_fraction": float(labelled.float().mean())}
         return stats
 
+    def _true_observations(self, rollout: Rollout) -> torch.Tensor | None:
+        """The noise-free observations the pull toward the expert is fitted at (`RegularizerConfig.true_observations`);
+        None: it is fitted at the policy's own."""
+        if not self.regularizer.true_observations:
+            return None
+        if rollout.true_observations is None:
+            raise ConfigError("the regularizer is fitted at the noise-free observations, but the rollout has none: "
+                              "collect it with RolloutRequest(true_observations=True)")
+        return flat(rollout.true_observations).to(self.device)
+
     def _terms(self, obs, actions, old_log_probs, old_values, returns, advantages, expert_actions, weights, labelled,
-               critic_only: bool) -> tuple[dict[str, torch.Tensor], torch.Tensor | None]:
+               true_obs, critic_only: bool) -> tuple[dict[str, torch.Tensor], torch.Tensor | None]:
         """The loss terms of one minibatch, and the actor's mean on it (None for the critic alone)."""
         cfg = self.config
         terms = {"value": cfg.value_coef * clipped_value_loss(self.model.value(obs), old_values, returns, cfg.clip)}
@@ -230,7 +248,12 @@ class Ppo:
         terms["surrogate"] = clipped_surrogate(distribution.log_prob(actions).sum(-1), old_log_probs, advantages, cfg.clip)
         terms["entropy"] = -cfg.entropy_coef * distribution.entropy().sum(-1).mean()
         if self.regularizer.uses_expert:
-            terms["regularizer"] = expert_regularizer(distribution.mean, expert_actions, weights, labelled)
+            if true_obs is None:
+                terms["regularizer"] = expert_regularizer(distribution.mean, expert_actions, weights, labelled)
+            else:  # mu at the labelled rows' noise-free observations only (the others weigh nothing)
+                rows = labelled.nonzero().squeeze(-1)
+                terms["regularizer"] = expert_regularizer(self.model.action_mean(true_obs[rows]), expert_actions[rows],
+                                                          weights[rows], labelled[rows])
         if self.regularizer.lipschitz_alpha > 0:
             terms["lipschitz"] = self.regularizer.lipschitz_alpha * lipschitz_penalty(
                 self.model.actor, self.model.normalizer(obs), self.generator, self.regularizer.lipschitz_samples)

@@ -60,6 +60,8 @@ class RolloutRequest:
     """Continue the environments' episodes from the previous rollout instead of starting fresh ones."""
     forward_command_max_mps: float | None = None
     """Upper end of the forward commands drawn (velocity curriculum); None: the config's."""
+    true_observations: bool = False
+    """Also record each tick's noise-free observation (`Rollout.true_observations`)."""
 
     def __post_init__(self) -> None:
         if self.policy is None and not (self.label_every == 1 and self.beta == 1.0):
@@ -100,6 +102,8 @@ class Rollout:
     """Mean of each unweighted reward term per tick."""
     timing_s: dict[str, float] = field(default_factory=dict)
     """Wall time spent in the expert, the physics and reward, the policy, and in total [s]."""
+    true_observations: np.ndarray | None = None
+    """The observations without their noise (`RolloutRequest.true_observations`; None: not recorded)."""
 
     @property
     def samples(self) -> int:
@@ -108,7 +112,8 @@ class Rollout:
     @staticmethod
     def concatenate(rollouts: list[Rollout]) -> Rollout:
         """Join groups along the environment axis (timings summed, episodes listed)."""
-        arrays = {name: np.concatenate([getattr(r, name) for r in rollouts], axis=-1 if name == "last_values" else 1)
+        arrays = {name: None if getattr(rollouts[0], name) is None else
+                  np.concatenate([getattr(r, name) for r in rollouts], axis=-1 if name == "last_values" else 1)
                   for name in Rollout.__dataclass_fields__ if name not in ("timing_s", "episodes", "reward_terms")}
         timing = {part: sum(r.timing_s.get(part, 0.0) for r in rollouts) for part in TIMING_PARTS}
         terms = {name: float(np.mean([r.reward_terms[name] for r in rollouts])) for name in rollouts[0].reward_terms}
@@ -167,7 +172,8 @@ class EnvGroup:
                    "expert_acted": np.zeros((T, n), bool), "actions": np.zeros((T, n, ACTION_DIM), np.float32),
                    "rewards": np.zeros((T, n), np.float32), "terminated": np.zeros((T, n), bool),
                    "truncated": np.zeros((T, n), bool), "monitors": np.zeros((T, n, len(MONITOR_NAMES)), np.float32),
-                   "log_probs": np.zeros((T, n), np.float32), "values": np.zeros((T, n), np.float32)}
+                   "log_probs": np.zeros((T, n), np.float32), "values": np.zeros((T, n), np.float32),
+                   "true_observations": np.zeros((T, n, obs_size), np.float32) if request.true_observations else None}
         for env in envs:
             if request.forward_command_max_mps is not None:
                 env.forward_command_max_mps = request.forward_command_max_mps
@@ -186,6 +192,8 @@ class EnvGroup:
         for t in range(T):
             observations = np.stack([env.observation for env in envs])
             buffers["observations"][t] = observations
+            if request.true_observations:
+                buffers["true_observations"][t] = np.stack([env.true_observation for env in envs])
             buffers["monitors"][t] = np.stack([env.monitors for env in envs])
             tick = time.perf_counter()
             if model is not None:
