@@ -32,11 +32,12 @@ def test_learning_throughput_benchmarks_print_their_figures():
 
 def test_learner_benchmark_prints_its_update_times():
     result = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bench_ppo_update.py"), "--steps", "20", "--envs", "4",
-                             "--repeats", "1", "--methods", "ppf", "--threads", "1"],
-                            capture_output=True, text=True, timeout=300, cwd=ROOT)
+                             "--repeats", "1", "--methods", "ppf", "ifm", "--threads", "1", "--true-observations", "False",
+                             "True"], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert result.returncode == 0, result.stderr
-    assert re.search(r"^\s+ppf\s+cpu\s+1\s+all\s+[\d.]+\s+\d+\s+1\.00x$", result.stdout, re.MULTILINE)
-    assert re.search(r"^\s+ppf\s+cpu\s+1\s+256\s+[\d.]+\s+\d+\s+[\d.]+x$", result.stdout, re.MULTILINE)
+    assert re.search(r"^\s+ppf\s+cpu\s+1\s+all\s+noisy obs\s+[\d.]+\s+\d+\s+1\.00x$", result.stdout, re.MULTILINE)
+    assert re.search(r"^\s+ppf\s+cpu\s+1\s+256\s+true obs\s+[\d.]+\s+\d+\s+[\d.]+x$", result.stdout, re.MULTILINE)
+    assert not re.search(r"^\s+ifm\s.*true obs", result.stdout, re.MULTILINE)  # IFM has no regularizer to fit
 
 
 def test_closed_chain_benchmark_prints_its_tables():
