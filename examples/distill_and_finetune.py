@@ -31,7 +31,7 @@ from learn.evaluate import evaluate, write_outputs
 from learn.export import export_onnx
 from learn.finetune import DISTILLED, SCRATCH_GAMMA, SCRATCH_LAM, SCRATCH_START_LEVEL, FinetuneConfig, FinetuneRunner
 from learn.policy import check_observation, load_checkpoint
-from learn.ppo import PAPER_MONITORS, Method, PpoConfig
+from learn.ppo import PAPER_MONITORS, Method, PpoConfig, method_regularizer
 from learn.storage import output_directory
 from mbc.errors import ConfigError, MbcError
 
@@ -111,7 +111,7 @@ def main(args: Args) -> None:
                               ("--yaw-rate-sigma", args.yaw_rate_sigma, "(rad/s)^2")):
         if sigma is not None and sigma <= 0:
             raise ConfigError(f"{flag} must be positive (the tracking kernel's width [{unit}]), got {sigma}")
-    if args.regularize_true_observations and args.method not in ("ppf", "fullreg"):
+    if args.regularize_true_observations and not method_regularizer(args.method).uses_expert:
         raise ConfigError(f"--regularize-true-observations fits the pull toward the expert: {args.method} has none")
     if args.stage == "all" and args.init_policy != DISTILLED:
         raise ConfigError("--init-policy is the start of --stage finetune; --stage all starts from its own distillation")

@@ -86,10 +86,7 @@ class FinetuneConfig:
         if self.label_every < 1 and self.method in ("ppf", "fullreg"):
             raise ConfigError(f"{self.method} regularizes toward the expert's labels: label_every must be >= 1 "
                               f"(1: every tick, 4: the default), got {self.label_every}")
-        if self.regularize_true_observations and self.method not in ("ppf", "fullreg"):
-            raise ConfigError(f"regularize_true_observations fits the pull toward the expert: only ppf and fullreg have "
-                              f"one, not {self.method}")
-        self.regularizer()  # checks the MAR monitors
+        self.regularizer()  # checks the MAR monitors, and that regularize_true_observations has a regularizer to fit
 
     def regularizer(self) -> RegularizerConfig:
         regularizer = method_regularizer(self.method, self.label_every, self.mar_monitors)

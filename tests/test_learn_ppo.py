@@ -1,5 +1,6 @@
 """The fine-tuning loss term by term, the paper's variants as configurations, and short runs."""
 
+import copy
 import dataclasses
 import json
 import math
@@ -10,6 +11,7 @@ import pytest
 import torch
 
 from learn.config import EnvConfig, PushSampling, WorkerConfig
+from learn.env import MONITOR_NAMES
 from learn.finetune import FinetuneConfig, FinetuneRunner
 from learn.losses import (
     clipped_surrogate,
@@ -21,7 +23,7 @@ from learn.losses import (
     mar_weight,
 )
 from learn.policy import ActorCritic
-from learn.ppo import METHODS, MONITOR_DELTAS, Ppo, PpoConfig, method_regularizer
+from learn.ppo import METHODS, MONITOR_DELTAS, Ppo, PpoConfig, RegularizerConfig, method_regularizer
 from mbc.assumptions import MAR_DELTA, MAR_W0
 from mbc.errors import ConfigError
 
@@ -216,6 +218,42 @@ def test_update_terms_per_variant_and_critic_only_leaves_the_actor(rng):
     assert stats["labelled_fraction"] == 0.5
     every_label = dataclasses.replace(method_regularizer("ppf"), only_followed_commands=False)
     assert Ppo(model, PpoConfig(epochs=1, minibatches=2), every_label).update(rollout)["labelled_fraction"] == 1.0
+
+
+def _first_regularizer(model: ActorCritic, regularizer: RegularizerConfig, rollout) -> float:
+    """The regularizer term of one update of one minibatch (computed before the step, on `model` as given)."""
+    return Ppo(copy.deepcopy(model), PpoConfig(epochs=1, minibatches=1), regularizer).update(rollout)["regularizer"]
+
+
+def test_the_regularizer_is_fitted_at_the_noise_free_observations_when_asked(rng):
+    """E[w ||a_E - mu(o_true)||^2] over the labelled samples; the same as the paper's when o_true = o."""
+    torch.manual_seed(0)
+    model, rollout = ActorCritic(10), _random_rollout(rng, T=6, n=2)
+    rollout.label_valid = rng.random((6, 2)) < 0.5  # the fit takes the labelled rows only
+    paper = method_regularizer("ppf")
+    true = dataclasses.replace(paper, true_observations=True)
+    rollout.true_observations = rollout.observations.copy()
+    assert _first_regularizer(model, true, rollout) == pytest.approx(_first_regularizer(model, paper, rollout), rel=1e-6)
+    rollout.true_observations = rollout.observations + rng.normal(size=rollout.observations.shape).astype(np.float32)
+    flat = {name: torch.as_tensor(getattr(rollout, name)).reshape(12, -1)
+            for name in ("true_observations", "expert_actions", "monitors", "label_valid")}
+    z_dot = flat["monitors"][:, [MONITOR_NAMES.index("com_vertical_velocity_mps")]]
+    with torch.no_grad():
+        expected = expert_regularizer(model.action_mean(flat["true_observations"]), flat["expert_actions"],
+                                      mar_weight(z_dot, torch.tensor(true.deltas), true.w0), flat["label_valid"][:, 0])
+    fitted = _first_regularizer(model, true, rollout)
+    assert fitted == pytest.approx(float(expected), rel=1e-5)
+    assert fitted != pytest.approx(_first_regularizer(model, paper, rollout), rel=1e-3)
+
+
+def test_the_noise_free_fit_is_refused_without_a_regularizer_or_without_the_observations(rng):
+    for method in ("ifm", "purerl"):
+        with pytest.raises(ConfigError, match="needs a regularizer"):
+            FinetuneConfig(method=method, regularize_true_observations=True)
+    assert FinetuneConfig(method="fullreg", regularize_true_observations=True).regularizer().true_observations
+    true = dataclasses.replace(method_regularizer("ppf"), true_observations=True)
+    with pytest.raises(ConfigError, match="RolloutRequest\\(true_observations=True\\)"):
+        Ppo(ActorCritic(10), PpoConfig(epochs=1, minibatches=1), true).update(_random_rollout(rng, T=6, n=2))
 
 
 def _short_run(tmp_path: Path, method: str, iterations: int, resume: bool = False) -> FinetuneConfig:
