@@ -66,6 +66,9 @@ class Args:
     start_level: int | None = None
     """Highest terrain-curriculum level an environment starts at (levels 0-9; default 5, to 14 deg, for a pre-trained
     policy, which already climbs; 0 for PureRL, which learns to stand and step first)."""
+    terrain_kinds: tuple[str, ...] = TerrainCurriculum.kinds
+    """The terrain curriculum's kinds; environment i takes kind i mod their number (`learn.curriculum`: flat, uphill,
+    downhill, uneven, stairs, and soft, yielding ground, which no shipped policy trained on)."""
     gamma: float | None = None
     """PPO's discount per 200 Hz tick (default 0.99, a 0.5 s horizon, for a pre-trained policy; 0.9975, 2 s, for
     PureRL, which must credit a fall to the steps before it: legged_gym's 0.99 at 50 Hz)."""
@@ -125,6 +128,10 @@ def main(args: Args) -> None:
                               **heading, **kernels)
     if args.stage == "finetune" and args.method != "purerl":  # a wrong start is refused before any work
         check_observation(load_checkpoint(args.init_policy), env, args.init_policy)
+    scratch = args.method == "purerl"  # from nothing: a curriculum from level 0 and a longer horizon
+    start_level = args.start_level if args.start_level is not None else (SCRATCH_START_LEVEL if scratch else
+                                                                          TerrainCurriculum.initial_max_level)
+    curriculum = TerrainCurriculum(kinds=args.terrain_kinds, initial_max_level=start_level)
     output_directory(args.run_dir, "--run-dir")
     init = args.init_policy
     if args.stage == "all":
@@ -136,15 +143,12 @@ def main(args: Args) -> None:
     iterations = args.iterations if args.iterations is not None else {"default": FinetuneConfig.iterations,
                                                                        "paper": 10_000}[args.preset]
     finetune_dir = args.run_dir / "finetune"
-    scratch = args.method == "purerl"  # from nothing: a curriculum from level 0 and a longer horizon
-    start_level = args.start_level if args.start_level is not None else (SCRATCH_START_LEVEL if scratch else
-                                                                          TerrainCurriculum.initial_max_level)
     ppo = PpoConfig(gamma=args.gamma if args.gamma is not None else (SCRATCH_GAMMA if scratch else PpoConfig.gamma),
                     lam=args.lam if args.lam is not None else (SCRATCH_LAM if scratch else PpoConfig.lam))
     config = FinetuneConfig(method=args.method, run_dir=finetune_dir, seed=args.seed, init_policy=init, env=env,
                             iterations=iterations, workers=args.workers, label_every=args.label_every, device=args.device,
                             mar_monitors=args.mar_monitors, regularize_true_observations=args.regularize_true_observations,
-                            curriculum=TerrainCurriculum(initial_max_level=start_level), ppo=ppo,
+                            curriculum=curriculum, ppo=ppo,
                             resume=args.resume and (finetune_dir / "training_state.pt").exists())
     if args.preset == "paper":  # 10,000 iterations of 40,000 steps: the paper's 400 M samples
         config = dataclasses.replace(config, steps_per_env=40_000 // args.workers.num_envs)

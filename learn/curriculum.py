@@ -8,6 +8,7 @@ so that every level stays in the batch. Level k of L has difficulty d = k / (L -
 
     uphill    slope  +(4 + 18 d) deg       downhill  slope  -(3 + 13 d) deg
     uneven    amplitude 1 + 4 d cm         stairs    risers 2 + 10 d cm
+    soft      yielding ground, contact time constant 20 + 60 d ms (the sand protocol's: 50 ms; opt-in)
 
 An incline (uphill, downhill) begins at the start's flat clearance and runs `INCLINE_LENGTH_M`, and its
 environments draw their own commands (`TerrainCurriculum.uphill_commands`, `downhill_commands`): forward,
@@ -30,7 +31,9 @@ from learn.config import CommandSampling
 from mbc.errors import ConfigError
 from mbc.sim.terrain import START_CLEARANCE_M
 
-TERRAIN_KINDS = ("flat", "uphill", "downhill", "uneven", "stairs")
+DEFAULT_KINDS = ("flat", "uphill", "downhill", "uneven", "stairs")
+"""The kinds of every shipped fine-tuning. `soft` is opt-in (`--terrain-kinds`): the noise-free fittings fall on
+sand from an oscillation that rigid ground never excites (docs/evaluation.md, "Why sand falls")."""
 INCLINE_KINDS = ("uphill", "downhill")
 INCLINE_LENGTH_M = 5.0
 """Horizontal length of a curriculum incline [m] (the evaluation's): at the inclines' commands its end (an
@@ -44,7 +47,8 @@ def terrain_spec(kind: str, difficulty: float) -> str:
     incline = f"run_up_m={START_CLEARANCE_M},length_m={INCLINE_LENGTH_M}"
     specs = {"flat": "flat", "uphill": f"slope:angle_deg={4 + 18 * d:.2f},{incline}",
              "downhill": f"slope:angle_deg={-(3 + 13 * d):.2f},{incline}",
-             "uneven": f"uneven:amplitude={0.01 + 0.04 * d:.4f}", "stairs": f"stairs:step_height={0.02 + 0.10 * d:.4f}"}
+             "uneven": f"uneven:amplitude={0.01 + 0.04 * d:.4f}", "stairs": f"stairs:step_height={0.02 + 0.10 * d:.4f}",
+             "soft": f"soft:timeconst_s={0.02 + 0.06 * d:.4f}"}
     if kind not in specs:
         raise ConfigError(f"unknown terrain kind {kind!r}; valid: {list(specs)}")
     return specs[kind]
@@ -54,7 +58,7 @@ def terrain_spec(kind: str, difficulty: float) -> str:
 class TerrainCurriculum:
     """Terrain kinds and levels; promotion and demotion by distance walked."""
 
-    kinds: tuple[str, ...] = TERRAIN_KINDS
+    kinds: tuple[str, ...] = DEFAULT_KINDS
     levels: int = 10
     promote_m: float = 4.0
     """An episode that walks this far without falling promotes its environment [m]."""
@@ -83,6 +87,8 @@ class TerrainCurriculum:
     """Commands of the downhill environments, slower: over the crest onto a 10 deg descent at 0.65 m/s the MBC
     and the policies fall on every start (at 0.5 none)."""
     def __post_init__(self) -> None:
+        if not self.kinds:
+            raise ConfigError("the terrain curriculum needs at least one kind")
         for kind in self.kinds:
             terrain_spec(kind, 0.0)
         if self.levels < 1 or self.promote_m <= self.demote_m:

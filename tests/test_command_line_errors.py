@@ -43,6 +43,8 @@ def test_the_main_job_refuses_bad_iterations_and_seeds_before_any_work(tmp_path)
                           (dict(yaw_rate_sigma=-0.05), "--yaw-rate-sigma must be positive"),
                           (dict(mean_vel_tracking=-1.0), "--mean-vel-tracking must be >= 0"),
                           (dict(method="ifm", regularize_true_observations=True), "ifm has none"),
+                          (dict(terrain_kinds=("flat", "sand")), "unknown terrain kind 'sand'; valid: .*'soft'"),
+                          (dict(terrain_kinds=()), "needs at least one kind"),
                           (dict(heading_hold=0.1), "--heading-hold needs --stage all")):
         with pytest.raises(ConfigError, match=message):
             job.main(job.Args(run_dir=tmp_path / "run", **args))

@@ -89,3 +89,18 @@ def test_incline_environments_draw_their_own_commands_and_the_others_the_tasks()
     assert not (curriculum.uphill_commands.widened or curriculum.downhill_commands.widened)
     flat_vx = np.array([c[0][0] for c in commands])
     assert np.any(flat_vx < 0) and np.any(flat_vx > config.commands.vx_mps[1])  # flat ground: backward, and widened
+
+
+def test_soft_levels_yield_more_with_difficulty_and_build_the_soft_terrain():
+    curriculum = TerrainCurriculum(kinds=("soft",), levels=10)
+    easiest, hardest = (parse_terrain(curriculum.spec("soft", level)) for level in (0, 9))
+    assert easiest == ("soft", {"timeconst_s": 0.02}) and hardest == ("soft", {"timeconst_s": 0.08})
+    vec_env = InProcessVecEnv(EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0)), 2,
+                              curriculum=curriculum)
+    vec_env.collect(RolloutRequest(None, steps=1, seed=0, label_every=1, beta=1.0))
+    for env, level in zip(vec_env.group.envs, vec_env.group.levels):
+        expected = parse_terrain(curriculum.spec("soft", level))[1]["timeconst_s"]
+        model = env.sim.model
+        ground = model.geom_priority == 1  # the soft ground's geom: its solref governs its contacts
+        assert env.terrain.startswith("soft:") and list(model.geom_solref[ground, 0]) == [expected]
+    assert "soft" not in TerrainCurriculum().kinds  # opt-in: no shipped policy trained on it
