@@ -14,7 +14,7 @@ import torch
 
 from learn.evaluate import check_protocols, controller_labels, evaluate, sustained_velocity, write_outputs
 from learn.evaluate.gait import CYCLE_SAMPLES, gait_distance, gait_features
-from learn.evaluate.metrics import incline_speed_error_pct, levels_completed, mean_ci95, tracking_return
+from learn.evaluate.metrics import incline_speed_error_pct, largest_oscillation, levels_completed, mean_ci95, tracking_return
 from learn.evaluate.protocols import HeadingHold, random_commands
 from learn.evaluate.shifts import SHIFTS, SensorNoise, ShiftedSensing, get_shift
 from learn.policy import ActorCritic, load_checkpoint
@@ -61,6 +61,22 @@ def test_incline_error_and_course_levels_on_known_paths():
     assert np.isnan(incline_speed_error_pct(episode, 5.0, 9.0, 0.5))  # never got there
     starts = np.array([2.0, 9.0, 16.0, 23.0])  # three levels of 7 m after a 2 m run-up
     assert [levels_completed(x, starts) for x in (1.0, 8.9, 9.0, 22.9, 30.0)] == [0, 0, 1, 2, 3]
+
+
+def test_largest_oscillation_finds_a_growing_speed_swing_and_the_yaw_swept_in_a_cycle():
+    growing = _episode(lambda t: (0.4 + 0.05 * t * np.sin(2 * np.pi * t / 0.35), 0.0), lambda t: (0.4, 0.0, 0.0),
+                       yaw_rate=0.2)
+    speed_mps, yaw_deg = largest_oscillation(growing)
+    # the last whole 0.7 s window after 1 s ends at 9.4 s: the swing's amplitude there is about 0.05 * 9.3 m/s
+    assert speed_mps == pytest.approx(2 * 0.05 * 9.3, rel=0.03)
+    assert yaw_deg == pytest.approx(np.degrees(0.2 * 0.695), rel=0.01)  # a steady turn sweeps 0.2 rad/s per window
+    steady = _episode(lambda t: (0.4, 0.0), lambda t: (0.4, 0.0, 0.0), duration_s=3.0)
+    assert largest_oscillation(steady) == pytest.approx((0.0, 0.0), abs=1e-9)
+    assert largest_oscillation(_episode(lambda t: (0.4, 0.0), lambda t: (0.4, 0.0, 0.0), duration_s=1.5)) == (0, 0)
+    tumble = _episode(lambda t: (0.4 + (3.0 if t > 2.55 else 0.0), 0.0), lambda t: (0.4, 0.0, 0.0), duration_s=3.2)
+    assert largest_oscillation(tumble)[0] == pytest.approx(3.0)  # the window of 2.4-3.1 s holds the jump in speed
+    tumble.fell = True  # ending in a fall: the cycle before it (2.5-3.2 s) is the tumble, left out
+    assert largest_oscillation(tumble) == pytest.approx((0.0, 0.0), abs=1e-9)
 
 
 def test_tracking_return_of_perfect_and_of_known_errors():
@@ -177,7 +193,11 @@ def test_unknown_protocols_shifts_and_non_policies_are_refused_with_the_valid_ch
         check_protocols(("flat", "moonwalk"))
     with pytest.raises(ConfigError, match="valid"):
         check_protocols(("uphill",))  # the angle is needed
-    check_protocols(("uphill_18", "uneven_3.5", "course_slope", "course_uneven_3", "random_velocity_10"))
+    check_protocols(("uphill_18", "uneven_3.5", "course_slope", "course_uneven_3", "random_velocity_10", "sand",
+                     "sand_30"))
+    for bad, reason in (("sand_2", "timeconst"), ("step_slip_0", "positive friction")):
+        with pytest.raises(ConfigError, match=f"protocol '{bad}': .*{reason}"):
+            check_protocols((bad,))  # refused before any job runs
     with pytest.raises(ConfigError, match="sensor_latency"):
         evaluate(["mbc"], ("flat",), seeds=1, workers=1, shifts=("zero_gravity",))
     bogus = tmp_path / "notes.txt"
@@ -194,12 +214,12 @@ def test_unknown_protocols_shifts_and_non_policies_are_refused_with_the_valid_ch
 
 def test_every_protocol_runs_on_the_mbc_and_writes_its_tables_and_figures(tmp_path):
     protocols = ("flat", "course_slope_1", "course_uneven_1", "uphill_8", "downhill_5", "uneven_2", "step_slip_100",
-                 "step_slip_15", "sand", "random_velocity_1", "max_velocity", "mar", "gait")
+                 "step_slip_15", "sand", "sand_30", "random_velocity_1", "max_velocity", "mar", "gait")
     results = evaluate(["mbc"], protocols, seeds=1, workers=2)
     assert [r["error"] for r in results.raw if "error" in r] == []  # a raising job would count as a mere failure
     rows = {row["protocol"]: row for row in results.rows}
     assert set(rows) == set(protocols)
-    for easy in ("flat", "uphill_8", "downhill_5", "uneven_2", "step_slip_100", "sand", "gait"):
+    for easy in ("flat", "uphill_8", "downhill_5", "uneven_2", "step_slip_100", "sand", "sand_30", "gait"):
         assert rows[easy]["successes"] == 1, easy  # where the MBC walks (its benchmark's cases)
     for course in ("course_slope_1", "course_uneven_1"):  # one level at the course's hardest (20 deg, 6 cm)
         run = next(r for r in results.raw if r["protocol"] == course)
@@ -207,6 +227,9 @@ def test_every_protocol_runs_on_the_mbc_and_writes_its_tables_and_figures(tmp_pa
         assert (run["metric"] == 1.0) == (run["x_reached_m"] >= 2.0 + run["level_length_m"])
     assert rows["step_slip_100"]["metric"] < 0.2 < 1.0 < rows["step_slip_15"]["metric"]  # the feet slide on 0.15
     assert rows["sand"]["metric"] > 4.0  # 0.4 m/s for 20 s, slowed by the sinking feet
+    sand = {r["protocol"]: r for r in results.raw if r["protocol"].startswith("sand")}
+    assert (sand["sand"]["timeconst_s"], sand["sand_30"]["timeconst_s"]) == (0.05, 0.03)
+    assert sand["sand"]["speed_oscillation_mps"] < 0.5 and sand["sand"]["yaw_oscillation_deg"] < 10  # the MBC's sway
     assert 0.85 < rows["max_velocity"]["metric"] < 1.15  # the MBC follows forward commands up to 1.0 m/s
     assert rows["mar"]["flat_holds"] > 0.9  # z' stays small on flat ground...
     assert rows["mar"]["uphill_violated"] > rows["mar"]["flat_violated"]  # ...and grows on the incline

@@ -26,6 +26,22 @@ def sustained_velocity(episode: Episode, hold_s: float = 2.0, tolerance_mps: flo
     return best
 
 
+def largest_oscillation(episode: Episode, since_s: float = 1.0, window_s: float = TRACKING_WINDOW_S) -> tuple[float, float]:
+    """The largest peak-to-peak, within one gait cycle (consecutive windows of `window_s` after `since_s`), of the
+    heading-frame forward speed [m/s] and of the yaw [deg]: a loop that oscillates grows them window by window.
+    The cycle before a fall is left out (the fall's own tumble is not the oscillation that led to it); (0, 0) when
+    no whole window remains."""
+    t = episode.arrays("time")
+    start = int(np.searchsorted(t, since_s))
+    ticks = max(int(round(window_s / (t[1] - t[0]))), 1) if len(t) > 1 else 1
+    end = len(t) - ticks if episode.fell else len(t)
+    speed, yaw = episode.heading_velocity()[:, 0], np.degrees(episode.yaw())
+    windows = [slice(k, k + ticks) for k in range(start, end - ticks + 1, ticks)]
+    if not windows:
+        return 0.0, 0.0
+    return (float(max(np.ptp(speed[w]) for w in windows)), float(max(np.ptp(yaw[w]) for w in windows)))
+
+
 def incline_speed_error_pct(episode: Episode, x_from_m: float, x_to_m: float, commanded_mps: float,
                             min_ticks: int = 100) -> float:
     """|mean forward speed while the pelvis is within [x_from, x_to] - command| in % of the command;

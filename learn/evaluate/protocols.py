@@ -20,8 +20,10 @@ Protocol names (parametric ones take a number after the last underscore); what r
 * `step_slip_F`: the paper's step-and-slip hardware test: 0.3 m/s with heading hold onto and across a 2 cm board
   of friction F / 100 (`step_slip_15`: 0.15, a whiteboard with poppy seeds or oil) 1.5 m ahead, 1.5 m long;
   its far end passed without a fall within 20 s; how far the feet slid on the board [m].
-* `sand`: 0.4 m/s for 20 s on yielding ground (`mbc.sim.terrain.Soft`: the feet sink about 3 cm); no fall;
-  distance [m].
+* `sand[_T]`: 0.4 m/s for 20 s on yielding ground of contact time constant T ms (default 50,
+  `mbc.sim.terrain.Soft`'s: the feet sink about 3 cm; MuJoCo's rigid default is 20); no fall; distance [m], and
+  the largest peak-to-peak within a gait cycle of the forward speed [m/s] and of the yaw [deg] (an oscillation
+  that the contact's lag excites grows them before it throws the robot).
 * `random_velocity[_N]`: N trajectories per seed (default 20: the paper's 100 over 5 seeds) of four random
   5 s commands from ranges wider than training's; no fall; the return of the tracking rewards (46 is perfect).
 * `max_velocity`: the forward command ramped 0.5 -> 1.6 m/s over 25 s; the highest speed held 2 s within
@@ -44,22 +46,29 @@ import torch
 
 from learn.config import EnvConfig
 from learn.evaluate.gait import gait_features
-from learn.evaluate.metrics import incline_speed_error_pct, levels_completed, sustained_velocity, tracking_return
+from learn.evaluate.metrics import (
+    incline_speed_error_pct,
+    largest_oscillation,
+    levels_completed,
+    sustained_velocity,
+    tracking_return,
+)
 from learn.evaluate.shifts import Shift, get_shift
 from mbc.assumptions import MAR_W0, mar_weight
 from mbc.errors import ConfigError
 from mbc.geometry import wrap_angle, yaw_of_quaternion
 from mbc.rollout import TRACKING_WINDOW_S, CommandSchedule, Episode, perturbed_stand, run_episode, tracked
 from mbc.sim import DigitSim
+from mbc.sim.terrain import Soft
 from mbc.types import Command, Controller, JointCommand, RobotState
 
-FIXED = ("flat", "max_velocity", "mar", "gait", "sand")
+FIXED = ("flat", "max_velocity", "mar", "gait")
 PARAMETRIC = {"uphill": "A deg", "downhill": "A deg", "uphill_hold": "A deg", "downhill_hold": "A deg",
               "uphill_long": "A deg", "uphill_long_hold": "A deg", "uneven": "C cm",
-              "step_slip": "F friction / 100",
+              "step_slip": "F friction / 100", "sand": "T ms",
               "course_slope": "L levels", "course_uneven": "L levels", "course_mixed": "L levels", "course": "L levels",
               "random_velocity": "N trajectories"}
-OPTIONAL_NUMBER = ("course_slope", "course_uneven", "course_mixed", "course", "random_velocity")
+OPTIONAL_NUMBER = ("course_slope", "course_uneven", "course_mixed", "course", "random_velocity", "sand")
 DEFAULT_PROTOCOLS = ("flat", "course_slope", "course_uneven", "uphill_10", "uphill_12", "uphill_14", "uphill_16",
                      "uphill_18", "uphill_20", "uphill_22", "downhill_8", "downhill_10", "downhill_12", "downhill_14",
                      "uneven_4", "step_slip_15", "sand", "random_velocity", "max_velocity", "mar", "gait")
@@ -93,9 +102,21 @@ def parse_protocol(name: str) -> tuple[str, float | None]:
         return name, None
     kind, _, value = name.rpartition("_")
     if kind in PARAMETRIC and value.replace(".", "", 1).isdigit():
+        try:
+            _check_value(kind, float(value))
+        except ConfigError as error:
+            raise ConfigError(f"protocol {name!r}: {error}") from None
         return kind, float(value)
     valid = list(FIXED) + [f"{k}_<{v}>" for k, v in PARAMETRIC.items()]
     raise ConfigError(f"unknown protocol {name!r}; valid: {valid} (course_* and random_velocity also without a number)")
+
+
+def _check_value(kind: str, value: float) -> None:
+    """Refuse a protocol number its terrain cannot take, before any job runs."""
+    if kind == "step_slip" and value <= 0:
+        raise ConfigError(f"step_slip needs a positive friction (in hundredths), got {value:g}")
+    if kind == "sand":
+        Soft(timeconst_s=value / 1000)  # raises on a time constant MuJoCo's contacts cannot take
 
 
 def make_controller(spec: str) -> Controller:
@@ -199,21 +220,23 @@ def _incline(sign: int, hold_heading: bool = False, length_m: float = INCLINE_M,
     return run
 
 
-def _distance_walked(terrain: str, controller, seed, shift, **terrain_params) -> dict:
-    """0.4 m/s for 20 s on `terrain`: no fall; the distance along +x [m]."""
+def _walk_forward(terrain: str, controller, seed, shift, **terrain_params) -> Episode:
+    """0.4 m/s for 20 s on `terrain`."""
     sim, shifted, state = _start(terrain, seed, shift, controller, **terrain_params)
-    episode = run_episode(sim, shifted, Command(0.4), 20.0, state=state)
+    return run_episode(sim, shifted, Command(0.4), 20.0, state=state)
+
+
+def _distance_walked(episode: Episode) -> dict:
+    """No fall; the distance along +x [m]."""
     return {"success": not episode.fell, "fell": episode.fell, "metric": float(episode.base_pos[-1][0])}
 
 
 def _uneven(controller, centimetres, seed, shift) -> dict:
-    return _distance_walked("uneven", controller, seed, shift, amplitude=centimetres / 100)
+    return _distance_walked(_walk_forward("uneven", controller, seed, shift, amplitude=centimetres / 100))
 
 
 def _step_slip(controller, hundredths, seed, shift) -> dict:
     friction = hundredths / 100
-    if friction <= 0:
-        raise ConfigError(f"step_slip needs a positive friction (in hundredths), got {hundredths}")
     sim, shifted, state = _start("board", seed, shift, controller, friction=friction, height_m=BOARD_HEIGHT_M,
                                  run_up_m=RUN_UP_M, length_m=BOARD_LENGTH_M)
     end = RUN_UP_M + BOARD_LENGTH_M
@@ -224,8 +247,12 @@ def _step_slip(controller, hundredths, seed, shift) -> dict:
     return {"success": crossed and not episode.fell, "fell": episode.fell, "metric": recorder.slip_m}
 
 
-def _sand(controller, _, seed, shift) -> dict:
-    return _distance_walked("soft", controller, seed, shift)
+def _sand(controller, milliseconds, seed, shift) -> dict:
+    timeconst_s = Soft.timeconst_s if milliseconds is None else milliseconds / 1000
+    episode = _walk_forward("soft", controller, seed, shift, timeconst_s=timeconst_s)
+    speed_mps, yaw_deg = largest_oscillation(episode)
+    return {**_distance_walked(episode), "timeconst_s": timeconst_s, "speed_oscillation_mps": speed_mps,
+            "yaw_oscillation_deg": yaw_deg}
 
 
 def random_commands(rng: np.random.Generator, count: int = 4, duration_s: float = RANDOM_COMMAND_S) -> CommandSchedule:
