@@ -21,9 +21,9 @@ Protocol names (parametric ones take a number after the last underscore); what r
   of friction F / 100 (`step_slip_15`: 0.15, a whiteboard with poppy seeds or oil) 1.5 m ahead, 1.5 m long;
   its far end passed without a fall within 20 s; how far the feet slid on the board [m].
 * `sand[_T]`: 0.4 m/s for 20 s on yielding ground of contact time constant T ms (default 50,
-  `mbc.sim.terrain.Soft`'s: the feet sink about 3 cm; MuJoCo's rigid default is 20); no fall; distance [m], and
-  the largest peak-to-peak within a gait cycle of the forward speed [m/s] and of the yaw [deg] (an oscillation
-  that the contact's lag excites grows them before it throws the robot).
+  `mbc.sim.terrain.Soft`'s: the feet sink about 3 cm; MuJoCo's default time constant is 20); no fall; distance
+  [m], and the largest peak-to-peak within a gait cycle of the forward speed [m/s] and of the yaw [deg], the cycle
+  before a fall left out (an oscillation that the contact's lag excites grows them before it throws the robot).
 * `random_velocity[_N]`: N trajectories per seed (default 20: the paper's 100 over 5 seeds) of four random
   5 s commands from ranges wider than training's; no fall; the return of the tracking rewards (46 is perfect).
 * `max_velocity`: the forward command ramped 0.5 -> 1.6 m/s over 25 s; the highest speed held 2 s within
