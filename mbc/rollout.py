@@ -114,6 +114,11 @@ class Episode:
         yaw = self.yaw()[keep]
         return np.r_[heading, (yaw[-1] - yaw[0]) / (t[keep][-1] - t[keep][0])]
 
+    def window_ticks(self, window_s: float = TRACKING_WINDOW_S) -> int:
+        """The ticks of one window of `window_s` [s] at the episode's control period (at least one)."""
+        t = self.arrays("time")
+        return max(int(round(window_s / (t[1] - t[0]))), 1) if len(t) > 1 else 1
+
     def window_velocity(self, window_s: float = TRACKING_WINDOW_S, since_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Velocities averaged over consecutive windows of `window_s` after `since_s`, with the command
         followed over each: ((k, 3) heading-frame vx, vy and yaw rate, (k, 3) mean command used).
@@ -122,8 +127,7 @@ class Episode:
         window remains after `since_s`, that remainder is the one window."""
         t = self.arrays("time")
         start = int(np.searchsorted(t, since_s))
-        ticks = max(int(round(window_s / (t[1] - t[0]))), 1) if len(t) > 1 else 1
-        ticks = min(ticks, len(t) - start)
+        ticks = min(self.window_ticks(window_s), len(t) - start)
         heading, yaw, used = self.heading_velocity(), self.yaw(), self.arrays("command_used")
         velocity, command = [], []
         for k in range(start, len(t) - ticks + 1, ticks):

@@ -15,8 +15,7 @@ def sustained_velocity(episode: Episode, hold_s: float = 2.0, tolerance_mps: flo
     velocity, command = episode.window_velocity()
     if not len(velocity):
         return 0.0
-    dt = float(episode.time[1] - episode.time[0])
-    window_s = dt * round(TRACKING_WINDOW_S / dt)
+    window_s = float(episode.time[1] - episode.time[0]) * episode.window_ticks()
     needed = max(int(round(hold_s / window_s)), 1)
     good = np.abs(velocity[:, 0] - command[:, 0]) <= tolerance_mps
     best = 0.0
@@ -33,7 +32,7 @@ def largest_oscillation(episode: Episode, since_s: float = 1.0, window_s: float 
     no whole window remains."""
     t = episode.arrays("time")
     start = int(np.searchsorted(t, since_s))
-    ticks = max(int(round(window_s / (t[1] - t[0]))), 1) if len(t) > 1 else 1
+    ticks = episode.window_ticks(window_s)
     end = len(t) - ticks if episode.fell else len(t)
     speed, yaw = episode.heading_velocity()[:, 0], np.degrees(episode.yaw())
     windows = [slice(k, k + ticks) for k in range(start, end - ticks + 1, ticks)]
