@@ -324,5 +324,18 @@ def test_the_long_incline_is_climbed_to_its_crest_8_m_up():
     assert parse_protocol("uphill_long_14") == ("uphill_long", 14.0)
     assert parse_protocol("uphill_long_hold_16") == ("uphill_long_hold", 16.0)
     assert LONG_INCLINE_M == 8.0
+    from learn.evaluate.protocols import LONG_INCLINE_S, RUN_UP_M, HeadingHold, _start
+    from mbc.rollout import run_episode
+    from mbc.types import Command
+
     climb = _RUNNERS["uphill_long_hold"](AlipController.for_digit(), 8.0, 0, get_shift("nominal"))
-    assert climb["success"] and climb["heading_drift_deg"] < 5.0  # over the crest, 9.5 m from the start
+    assert climb["success"]  # over the crest, 9.5 m from the start
+    # held, the heading turns at the crest and comes back: the crest's transient measured 5.5 deg on an AMD EPYC
+    # (under 5 elsewhere: the QP's build differs between machines, docs/design.md "Known limits"), the last 10 s
+    # within 0.8 deg; open-loop the same climb drifts to 10 deg, so the recovery is what tells the hold apart
+    sim, controller, state = _start("slope", 0, get_shift("nominal"), AlipController.for_digit(), angle_deg=8.0,
+                                    run_up_m=RUN_UP_M, length_m=LONG_INCLINE_M)
+    episode = run_episode(sim, HeadingHold(controller), Command(0.5), LONG_INCLINE_S, state=state)
+    yaw_deg = np.degrees(np.abs(episode.yaw()))
+    last = episode.arrays("time") > LONG_INCLINE_S - 10.0
+    assert yaw_deg.max() < 8.0 and yaw_deg[last].max() < 2.0
