@@ -68,7 +68,7 @@ class Args:
     policy, which already climbs; 0 for PureRL, which learns to stand and step first)."""
     terrain_kinds: tuple[str, ...] = TerrainCurriculum.kinds
     """The terrain curriculum's kinds; environment i takes kind i mod their number (`learn.curriculum`: flat, uphill,
-    downhill, uneven, stairs, and soft, yielding ground, which no shipped policy trained on)."""
+    downhill, uneven, stairs; and, opt-in, soft, yielding ground, and slippery, a low-friction board)."""
     gamma: float | None = None
     """PPO's discount per 200 Hz tick (default 0.99, a 0.5 s horizon, for a pre-trained policy; 0.9975, 2 s, for
     PureRL, which must credit a fall to the steps before it: legged_gym's 0.99 at 50 Hz)."""

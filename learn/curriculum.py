@@ -9,6 +9,8 @@ so that every level stays in the batch. Level k of L has difficulty d = k / (L -
     uphill    slope  +(4 + 18 d) deg       downhill  slope  -(3 + 13 d) deg
     uneven    amplitude 1 + 4 d cm         stairs    risers 2 + 10 d cm
     soft      yielding ground, contact time constant 20 + 60 d ms (the sand protocol's: 50 ms; opt-in)
+    slippery  a board 1 + 2 d cm high of friction 0.5 - 0.4 d, `SLIPPERY_BOARD_M` long and wide, 1.5 m ahead
+              (the step-and-slip protocol's: 2 cm, 0.15, near d = 0.9; opt-in)
 
 An incline (uphill, downhill) begins at the start's flat clearance and runs `INCLINE_LENGTH_M`, and its
 environments draw their own commands (`TerrainCurriculum.uphill_commands`, `downhill_commands`): forward,
@@ -32,13 +34,18 @@ from mbc.errors import ConfigError
 from mbc.sim.terrain import START_CLEARANCE_M
 
 DEFAULT_KINDS = ("flat", "uphill", "downhill", "uneven", "stairs")
-"""The kinds of every shipped fine-tuning. `soft` is opt-in (`--terrain-kinds`): the noise-free fittings fall on
-sand from an oscillation that rigid ground never excites (docs/evaluation.md, "Why sand falls")."""
+"""The kinds of every shipped fine-tuning. `soft` and `slippery` are opt-in (`--terrain-kinds`): the noise-free
+fittings fall on sand from an oscillation that rigid ground never excites (docs/evaluation.md, "Why sand falls"), and
+every controller, the MBC included, slides off the step-and-slip board (docs/design.md, "slippery ground")."""
 INCLINE_KINDS = ("uphill", "downhill")
 INCLINE_LENGTH_M = 5.0
 """Horizontal length of a curriculum incline [m] (the evaluation's): at the inclines' commands its end (an
 uphill's crest, where a 20 m incline's policy fell in evaluation; a downhill's foot) is reached in 54-82% of the
 20 s episodes, and four metres of promotion fit on it."""
+SLIPPERY_BOARD_M = 6.0
+"""Length and width of the curriculum's slippery board [m]: the protocol's 1.5 x 1.2 m board is crossed in 3-5 s at
+its 0.3 m/s and left sideways by most of the flat-ground commands (turning, lateral); this one holds the four metres
+of promotion, and the step down off it is trained as well as the step onto it."""
 
 
 def terrain_spec(kind: str, difficulty: float) -> str:
@@ -48,7 +55,9 @@ def terrain_spec(kind: str, difficulty: float) -> str:
     specs = {"flat": "flat", "uphill": f"slope:angle_deg={4 + 18 * d:.2f},{incline}",
              "downhill": f"slope:angle_deg={-(3 + 13 * d):.2f},{incline}",
              "uneven": f"uneven:amplitude={0.01 + 0.04 * d:.4f}", "stairs": f"stairs:step_height={0.02 + 0.10 * d:.4f}",
-             "soft": f"soft:timeconst_s={0.02 + 0.06 * d:.4f}"}
+             "soft": f"soft:timeconst_s={0.02 + 0.06 * d:.4f}",
+             "slippery": f"board:friction={0.5 - 0.4 * d:.4f},height_m={0.01 + 0.02 * d:.4f},run_up_m=1.5,"
+                         f"length_m={SLIPPERY_BOARD_M},width_m={SLIPPERY_BOARD_M}"}
     if kind not in specs:
         raise ConfigError(f"unknown terrain kind {kind!r}; valid: {list(specs)}")
     return specs[kind]

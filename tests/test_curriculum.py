@@ -1,15 +1,16 @@
 """The terrain curriculum: starting levels, promotion, demotion, the last level's recycling, and the levels an
 `EnvGroup` builds its terrains from."""
 
+import mujoco
 import numpy as np
 import pytest
 
 from learn.config import EnvConfig, PushSampling
-from learn.curriculum import INCLINE_KINDS, TerrainCurriculum
+from learn.curriculum import INCLINE_KINDS, SLIPPERY_BOARD_M, TerrainCurriculum
 from learn.env import parse_terrain
 from learn.vec_env import InProcessVecEnv, RolloutRequest
 from mbc.errors import ConfigError
-from mbc.sim.terrain import START_CLEARANCE_M
+from mbc.sim.terrain import START_CLEARANCE_M, Board
 
 
 def test_initial_levels_cover_zero_to_the_initial_maximum():
@@ -104,3 +105,25 @@ def test_soft_levels_yield_more_with_difficulty_and_build_the_soft_terrain():
         ground = model.geom_priority == 1  # the soft ground's geom: its solref governs its contacts
         assert env.terrain.startswith("soft:") and list(model.geom_solref[ground, 0]) == [expected]
     assert "soft" not in TerrainCurriculum().kinds  # opt-in: no shipped policy trained on it
+
+
+def test_slippery_levels_get_more_slippery_and_higher_and_build_the_board():
+    curriculum = TerrainCurriculum(kinds=("slippery",), levels=10)
+    easiest, hardest = (parse_terrain(curriculum.spec("slippery", level))[1] for level in (0, 9))
+    assert (easiest["friction"], easiest["height_m"]) == (0.5, 0.01)
+    assert (hardest["friction"], hardest["height_m"]) == pytest.approx((0.1, 0.03))
+    protocol_board = Board()  # the step-and-slip protocol's, inside the levels' range
+    assert hardest["friction"] < protocol_board.friction < easiest["friction"]
+    assert easiest["height_m"] < protocol_board.height_m < hardest["height_m"]
+    vec_env = InProcessVecEnv(EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0)), 2,
+                              curriculum=curriculum)
+    vec_env.collect(RolloutRequest(None, steps=1, seed=0, label_every=1, beta=1.0))
+    for env, level in zip(vec_env.group.envs, vec_env.group.levels):
+        expected = parse_terrain(curriculum.spec("slippery", level))[1]
+        model = env.sim.model
+        board, floor = (mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, name) for name in ("board", "floor"))
+        # the randomization scales every geom's friction alike: the board's relative to the floor's is the level's
+        assert model.geom_friction[board, 0] / model.geom_friction[floor, 0] == pytest.approx(expected["friction"])
+        assert model.geom_priority[board] == 1 and 2 * model.geom_size[board, 2] == pytest.approx(expected["height_m"])
+        assert 2 * model.geom_size[board, 1] == SLIPPERY_BOARD_M  # wide enough to turn and step sideways on
+    assert "slippery" not in TerrainCurriculum().kinds  # opt-in: no shipped policy trained on it
