@@ -9,8 +9,8 @@ so that every level stays in the batch. Level k of L has difficulty d = k / (L -
     uphill    slope  +(4 + 18 d) deg       downhill  slope  -(3 + 13 d) deg
     uneven    amplitude 1 + 4 d cm         stairs    risers 2 + 10 d cm
     soft      yielding ground, contact time constant 20 + 60 d ms (the sand protocol's: 50 ms; opt-in)
-    slippery  a board 1 + 2 d cm high of friction 0.5 - 0.4 d, `SLIPPERY_BOARD_M` long and wide, 1.5 m ahead
-              (the step-and-slip protocol's: 2 cm, 0.15, near d = 0.9; opt-in)
+    slippery  a board 1 + 2 d cm high of friction 0.5 - 0.4 d, `SLIPPERY_BOARD_M` long and wide, the protocol's run-up
+              (1.5 m) ahead (the step-and-slip protocol's board: 2 cm, 0.15, near d = 0.9; opt-in)
 
 An incline (uphill, downhill) begins at the start's flat clearance and runs `INCLINE_LENGTH_M`, and its
 environments draw their own commands (`TerrainCurriculum.uphill_commands`, `downhill_commands`): forward,
@@ -56,7 +56,7 @@ def terrain_spec(kind: str, difficulty: float) -> str:
              "downhill": f"slope:angle_deg={-(3 + 13 * d):.2f},{incline}",
              "uneven": f"uneven:amplitude={0.01 + 0.04 * d:.4f}", "stairs": f"stairs:step_height={0.02 + 0.10 * d:.4f}",
              "soft": f"soft:timeconst_s={0.02 + 0.06 * d:.4f}",
-             "slippery": f"board:friction={0.5 - 0.4 * d:.4f},height_m={0.01 + 0.02 * d:.4f},run_up_m=1.5,"
+             "slippery": f"board:friction={0.5 - 0.4 * d:.4f},height_m={0.01 + 0.02 * d:.4f},"
                          f"length_m={SLIPPERY_BOARD_M},width_m={SLIPPERY_BOARD_M}"}
     if kind not in specs:
         raise ConfigError(f"unknown terrain kind {kind!r}; valid: {list(specs)}")

@@ -126,4 +126,6 @@ def test_slippery_levels_get_more_slippery_and_higher_and_build_the_board():
         assert model.geom_friction[board, 0] / model.geom_friction[floor, 0] == pytest.approx(expected["friction"])
         assert model.geom_priority[board] == 1 and 2 * model.geom_size[board, 2] == pytest.approx(expected["height_m"])
         assert 2 * model.geom_size[board, 1] == SLIPPERY_BOARD_M  # wide enough to turn and step sideways on
+        near_edge_m = model.geom_pos[board, 0] - model.geom_size[board, 0]
+        assert near_edge_m == pytest.approx(protocol_board.run_up_m)  # stepped onto after the protocol's run-up
     assert "slippery" not in TerrainCurriculum().kinds  # opt-in: no shipped policy trained on it
