@@ -13,7 +13,8 @@ so that every level stays in the batch. Level k of L has difficulty d = k / (L -
               (1.5 m) ahead (the step-and-slip protocol's board: 2 cm, 0.15, near d = 0.9; opt-in)
 
 An incline (uphill, downhill) begins at the start's flat clearance and runs `INCLINE_LENGTH_M`, and its
-environments draw their own commands (`TerrainCurriculum.uphill_commands`, `downhill_commands`): forward,
+environments (and the slippery ones, at the step-and-slip protocol's speeds) draw their own commands
+(`TerrainCurriculum.uphill_commands`, `downhill_commands`, `slippery_commands`): forward,
 at speeds an incline allows, little turning, so that they spend their episodes walking its fall line. A robot
 that tracked them exactly (a kinematic count) would climb 54-62% of an uphill episode and reach the crest in
 54-82% of them, descend 63-70% of a downhill one and reach its foot in 60-80%; under the evaluation's geometry
@@ -95,6 +96,15 @@ class TerrainCurriculum:
         lateral_probability=0.2, yaw_probability=0.2, widened=False))
     """Commands of the downhill environments, slower: over the crest onto a 10 deg descent at 0.65 m/s the MBC
     and the policies fall on every start (at 0.5 none)."""
+    slippery_commands: CommandSampling = field(default_factory=lambda: CommandSampling(
+        vx_mps=(0.2, 0.5), vy_mps=(-0.1, 0.1), yaw_rate_radps=(-0.1, 0.1), standing_probability=0.1,
+        lateral_probability=0.2, yaw_probability=0.2, widened=False))
+    """Commands of the slippery environments: forward about the step-and-slip protocol's 0.3 m/s, little stepping
+    sideways or turning. Under the flat-ground commands, a pilot's slippery environments stayed at levels 0-3 of 10
+    (friction 0.5-0.37) over 2.56 M steps; a third of their forward range is backward, away from the board, and their
+    turning takes a robot off it before the four metres of promotion (docs/evaluation.md, "A slippery-ground
+    pilot"; that this held the levels down is a hypothesis)."""
+
     def __post_init__(self) -> None:
         if not self.kinds:
             raise ConfigError("the terrain curriculum needs at least one kind")
@@ -110,7 +120,8 @@ class TerrainCurriculum:
 
     def commands(self, kind: str, flat_ground: CommandSampling) -> CommandSampling:
         """The command sampling of an environment of `kind` (`flat_ground`: the task's own, off the inclines)."""
-        return {"uphill": self.uphill_commands, "downhill": self.downhill_commands}.get(kind, flat_ground)
+        own = {"uphill": self.uphill_commands, "downhill": self.downhill_commands, "slippery": self.slippery_commands}
+        return own.get(kind, flat_ground)
 
     def initial_level(self, rng: np.random.Generator) -> int:
         """A starting level, uniform over 0 .. `initial_max_level`."""

@@ -8,6 +8,7 @@ import pytest
 from learn.config import EnvConfig, PushSampling
 from learn.curriculum import INCLINE_KINDS, SLIPPERY_BOARD_M, TerrainCurriculum
 from learn.env import parse_terrain
+from learn.evaluate.protocols import STEP_SLIP_SPEED_MPS
 from learn.vec_env import InProcessVecEnv, RolloutRequest
 from mbc.errors import ConfigError
 from mbc.sim.terrain import START_CLEARANCE_M, Board
@@ -70,24 +71,25 @@ def test_inclines_have_their_foot_and_crest_within_an_episode_and_room_to_promot
             assert params["length_m"] >= curriculum.promote_m  # a promotion can be earned on the incline alone
 
 
-def test_incline_environments_draw_their_own_commands_and_the_others_the_tasks():
+def test_incline_and_slippery_environments_draw_their_own_commands_and_the_others_the_tasks():
     config = EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0))
-    curriculum = TerrainCurriculum(kinds=("flat", "uphill", "downhill"), levels=10, initial_max_level=9)
-    vec_env = InProcessVecEnv(config, 3, curriculum=curriculum)
+    curriculum = TerrainCurriculum(kinds=("flat", "uphill", "downhill", "slippery"), levels=10, initial_max_level=9)
+    vec_env = InProcessVecEnv(config, 4, curriculum=curriculum)
     widening = 2.0  # the velocity curriculum at twice the task's forward range
     commands = []
     for seed in range(12):
         vec_env.collect(RolloutRequest(None, steps=1, seed=seed, label_every=1, beta=1.0,
                                        forward_command_max_mps=widening * config.commands.vx_mps[1]))
         commands.append([env.command.copy() for env in vec_env.group.envs])
-    flat, uphill, downhill = vec_env.group.envs
+    flat, uphill, downhill, slippery = vec_env.group.envs
     assert flat.command_sampling == config.commands
-    assert (uphill.command_sampling, downhill.command_sampling) == (curriculum.uphill_commands, curriculum.downhill_commands)
-    for k, sampling in ((1, curriculum.uphill_commands), (2, curriculum.downhill_commands)):
+    own = (curriculum.uphill_commands, curriculum.downhill_commands, curriculum.slippery_commands)
+    assert (uphill.command_sampling, downhill.command_sampling, slippery.command_sampling) == own
+    for k, sampling in enumerate(own, start=1):
         vx = np.array([c[k][0] for c in commands])
         low, high = np.array(sampling.vx_mps) * (widening if sampling.widened else 1.0)
         assert np.all((vx == 0) | ((vx >= low - 1e-12) & (vx <= high + 1e-12)))  # never backward
-    assert not (curriculum.uphill_commands.widened or curriculum.downhill_commands.widened)
+    assert not any(sampling.widened for sampling in own)
     flat_vx = np.array([c[0][0] for c in commands])
     assert np.any(flat_vx < 0) and np.any(flat_vx > config.commands.vx_mps[1])  # flat ground: backward, and widened
 
@@ -128,4 +130,6 @@ def test_slippery_levels_get_more_slippery_and_higher_and_build_the_board():
         assert 2 * model.geom_size[board, 1] == SLIPPERY_BOARD_M  # wide enough to turn and step sideways on
         near_edge_m = model.geom_pos[board, 0] - model.geom_size[board, 0]
         assert near_edge_m == pytest.approx(protocol_board.run_up_m)  # stepped onto after the protocol's run-up
+    low_mps, high_mps = curriculum.slippery_commands.vx_mps
+    assert 0 < low_mps < STEP_SLIP_SPEED_MPS < high_mps  # walked onto at about the protocol's speed
     assert "slippery" not in TerrainCurriculum().kinds  # opt-in: no shipped policy trained on it
