@@ -100,10 +100,10 @@ class TerrainCurriculum:
         vx_mps=(0.2, 0.5), vy_mps=(-0.1, 0.1), yaw_rate_radps=(-0.1, 0.1), standing_probability=0.1,
         lateral_probability=0.2, yaw_probability=0.2, widened=False))
     """Commands of the slippery environments: forward about the step-and-slip protocol's 0.3 m/s, little stepping
-    sideways or turning. Under the flat-ground commands, a pilot's slippery environments stayed at levels 0-3 of 10
-    (friction 0.5-0.37) over 2.56 M steps; a third of their forward range is backward, away from the board, and their
-    turning takes a robot off it before the four metres of promotion (docs/evaluation.md, "A slippery-ground
-    pilot"; that this held the levels down is a hypothesis)."""
+    sideways or turning. Under the flat-ground commands (a third of their forward range backward, away from the
+    board; turns to 0.8 rad/s off it) a pilot's slippery environments stayed at levels 0-3 of 10 (friction
+    0.5-0.37) over 2.56 M steps; under these, the same pilot's reached levels 6-8 (0.23-0.14; one training seed,
+    docs/evaluation.md, "A second slippery-ground pilot")."""
 
     def __post_init__(self) -> None:
         if not self.kinds:
