@@ -47,10 +47,7 @@ def sensitivity(path: Path, command: tuple[float, float, float], duration_s: flo
     """(mean ||d mu / d o_part||_F per part of `PARTS`, whether the walk fell)."""
     checkpoint = load_checkpoint(path)
     network = ActorCritic.from_checkpoint(checkpoint).eval()
-    vx, vy, yaw_rate = command
-    held = CommandSampling(vx_mps=(vx, vx), vy_mps=(vy, vy), yaw_rate_radps=(yaw_rate, yaw_rate), standing_probability=0.0,
-                           lateral_probability=1.0, yaw_probability=1.0, resample_interval_s=(1e9, 1e9))
-    env = WalkEnv(EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0), commands=held,
+    env = WalkEnv(EnvConfig(terrains=("flat",), pushes=PushSampling(probability=0.0), commands=CommandSampling.held(*command),
                             observe_heading_error=observes_heading_error(checkpoint)), with_expert=False)
     slices = [env.builder.layout.slice(part) for part in PARTS]
     observation, norms = env.reset(0), []

@@ -56,6 +56,13 @@ class CommandSampling:
             _require(0.0 <= getattr(self, name) <= 1.0, f"{name} must be in [0, 1], got {getattr(self, name)}")
         _require(self.resample_interval_s[0] > 0, "resample_interval_s must be positive")
 
+    @classmethod
+    def held(cls, vx_mps: float, vy_mps: float = 0.0, yaw_rate_radps: float = 0.0) -> CommandSampling:
+        """One command for a whole episode, never resampled nor widened (the diagnostics' walks)."""
+        return cls(vx_mps=(vx_mps, vx_mps), vy_mps=(vy_mps, vy_mps), yaw_rate_radps=(yaw_rate_radps, yaw_rate_radps),
+                   standing_probability=0.0, lateral_probability=1.0, yaw_probability=1.0,
+                   resample_interval_s=(1e9, 1e9), widened=False)
+
 
 @dataclass(frozen=True)
 class PushSampling:
